@@ -1,0 +1,313 @@
+// Tests world/world and world/runner: people never pass through walls, carried objects stay with
+// their carrier, the derived ground-truth events (left bag, bag taken, exchange, unauthorised
+// object) match what the scripts make people do, robots obey velocity commands and odometry
+// drifts as configured, and the same scenario and seed give the same ground-truth hash.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "tests/test_util.h"
+#include "world/runner.h"
+#include "world/world.h"
+
+namespace vigil {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A 24 x 12 m room split by a wall at x = 12 with a 1.2 m door at y = 6.
+fs::path write_test_map() {
+  const fs::path dir = fs::temp_directory_path() / ("vigil_world_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  OccupancyGrid g(480, 240, 0.05, Pose2{0, 0, 0});
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 480; ++x) {
+      const bool border = x < 2 || y < 2 || x >= 478 || y >= 238;
+      const bool inner = x >= 238 && x < 242 && !(y >= 108 && y < 132);
+      if (border || inner) g.set(x, y, Cell::kOccupied);
+    }
+  }
+  const fs::path yaml = dir / "room.yaml";
+  EXPECT_TRUE(save_map_yaml(g, yaml).ok());
+  return yaml;
+}
+
+PlaceRef at(double x, double y) {
+  PlaceRef p;
+  p.point = {x, y};
+  return p;
+}
+
+Action walk(double x, double y) {
+  Action a;
+  a.kind = ActionKind::kWalkTo;
+  a.target = at(x, y);
+  return a;
+}
+Action act(ActionKind k, const std::string& obj, double seconds = 1.0) {
+  Action a;
+  a.kind = k;
+  a.object = obj;
+  a.duration = seconds;
+  return a;
+}
+Action wait_s(double s) {
+  Action a;
+  a.kind = ActionKind::kWait;
+  a.duration = s;
+  return a;
+}
+
+Scenario base_scenario(double duration) {
+  static const fs::path map = write_test_map();
+  Scenario sc;
+  sc.file = "world_test.yaml";
+  sc.name = "world_test";
+  sc.map = map;
+  sc.duration = duration;
+  sc.seed = 3;
+  return sc;
+}
+
+PersonSpec person(const std::string& id, double x, double y) {
+  PersonSpec p;
+  p.id = id;
+  p.start = at(x, y);
+  return p;
+}
+
+ObjectSpec object(const std::string& id, ObjectKind kind, double x, double y) {
+  ObjectSpec o;
+  o.id = id;
+  o.kind = kind;
+  o.position = at(x, y);
+  o.size_x = o.size_y = 0.3;
+  return o;
+}
+
+std::unique_ptr<World> make_world(const Scenario& sc) {
+  WorldOptions wo;
+  wo.plugin_dirs = {test::plugin_dir()};
+  auto w = World::create(sc, wo);
+  EXPECT_TRUE(w.ok()) << (w.ok() ? "" : w.error().str());
+  return w.ok() ? std::move(*w) : nullptr;
+}
+
+// Runs to the end, calling `check` after every step.
+template <class F>
+void run(World& w, F check) {
+  while (!w.finished()) {
+    Status s = w.advance();
+    ASSERT_TRUE(s.ok()) << s.error().str();
+    check(w);
+  }
+}
+
+const GroundTruthEvent* find_event(const World& w, const std::string& kind) {
+  for (const auto& e : w.events())
+    if (e.kind == kind) return &e;
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(World, PeopleNeverPassThroughWallsAndReachTheirGoal) {
+  Scenario sc = base_scenario(40);
+  PersonSpec a = person("A", 3, 3);
+  a.script = {walk(20, 9), walk(3, 10)};
+  PersonSpec b = person("B", 20, 3);
+  b.script = {walk(3, 9)};  // crosses A at the door
+  sc.people = {a, b};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  bool a_crossed = false;
+  run(*w, [&](const World& world) {
+    for (const auto& p : world.people()) {
+      // Body inside free space (Box2D allows a few mm of contact slop).
+      ASSERT_TRUE(world.map().is_free_disc(p.pose.position(), p.spec.radius - 0.03))
+          << p.spec.id << " at " << p.pose.x << ", " << p.pose.y << " t=" << to_seconds(world.time());
+    }
+    if (world.people()[0].pose.x > 12.5) a_crossed = true;
+  });
+  EXPECT_TRUE(a_crossed);
+  EXPECT_NEAR(w->people()[0].pose.x, 3, 0.3);
+  EXPECT_NEAR(w->people()[0].pose.y, 10, 0.3);
+  EXPECT_NEAR(w->people()[1].pose.x, 3, 0.3);
+  EXPECT_NEAR(w->people()[1].pose.y, 9, 0.3);
+}
+
+TEST(World, LeftBagThenBagTaken) {
+  Scenario sc = base_scenario(60);
+  PersonSpec a = person("A", 2, 6);
+  a.script = {walk(8, 6), act(ActionKind::kPutDown, "bag1"), walk(20, 3), wait_s(60)};
+  PersonSpec b = person("B", 9, 10);
+  Action start = walk(9, 9);
+  start.at = 30.0;
+  Action leave;
+  leave.kind = ActionKind::kLeave;
+  leave.target = at(22, 10);
+  b.script = {start, act(ActionKind::kPickUp, "bag1"), leave};
+  sc.people = {a, b};
+  ObjectSpec bag = object("bag1", ObjectKind::kBag, 0, 0);
+  bag.carried_by = "A";
+  bag.owner = "A";
+  sc.objects = {bag};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  SimTime put_down = -1;
+  run(*w, [&](const World& world) {
+    const auto& o = world.objects()[0];
+    if (o.carrier >= 0) {
+      const auto& c = world.people()[o.carrier];
+      ASSERT_LT((o.pose.position() - c.pose.position()).norm(), 0.6) << "carried bag left its carrier";
+    }
+    if (put_down < 0 && o.carrier < 0) put_down = world.time();
+  });
+  ASSERT_GT(put_down, 0);
+  ASSERT_EQ(w->events().size(), 2u);
+  const auto& left = w->events()[0];
+  EXPECT_EQ(left.kind, "left_bag");
+  EXPECT_EQ(left.people, std::vector<std::string>{"A"});
+  EXPECT_EQ(left.object, "bag1");
+  // Set down at A's right side where it was carried, A facing +x at (8, 6).
+  EXPECT_NEAR(left.where.x, 8.0, 0.3);
+  EXPECT_NEAR(left.where.y, 5.55, 0.3);
+  // A walks about 1.2 m/s: more than 3 m away roughly 2.5 s after the drop, confirmed 5 s later.
+  EXPECT_GT(left.t, put_down);
+  EXPECT_LT(left.t, put_down + from_seconds(5));
+  EXPECT_EQ(left.confirmed - left.t, from_seconds(sc.rules.left_bag_time));
+  const auto& taken = w->events()[1];
+  EXPECT_EQ(taken.kind, "bag_taken");
+  EXPECT_EQ(taken.people, std::vector<std::string>{"B"});
+  EXPECT_EQ(taken.owner, "A");
+  EXPECT_GT(taken.t, from_seconds(30));
+  // B left with the bag: both gone.
+  EXPECT_TRUE(w->people()[1].gone);
+  EXPECT_FALSE(w->objects()[0].present);
+}
+
+TEST(World, HandOverNearTheOwnerIsAnExchangeNotALeftBag) {
+  Scenario sc = base_scenario(30);
+  PersonSpec a = person("A", 2, 6);
+  a.script = {walk(6, 6), act(ActionKind::kPutDown, "bag1"), wait_s(30)};
+  PersonSpec b = person("B", 8, 3);
+  Action go = walk(7.2, 4.8);
+  go.at = 10.0;
+  b.script = {go, act(ActionKind::kPickUp, "bag1"), walk(10, 3)};
+  sc.people = {a, b};
+  ObjectSpec bag = object("bag1", ObjectKind::kBag, 0, 0);
+  bag.carried_by = "A";
+  sc.objects = {bag};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  run(*w, [](const World&) {});
+  ASSERT_EQ(w->events().size(), 1u);
+  EXPECT_EQ(w->events()[0].kind, "exchange");
+  EXPECT_EQ(w->events()[0].people, (std::vector<std::string>{"A", "B"}));
+}
+
+TEST(World, TouchingAnUnauthorisedObjectRaisesAnEventOwnObjectsDoNot) {
+  Scenario sc = base_scenario(40);
+  PersonSpec p = person("P", 14, 6);
+  p.script = {act(ActionKind::kTouch, "book", 2), act(ActionKind::kPickUp, "bottle"),
+              act(ActionKind::kPutDown, "bottle"), act(ActionKind::kTouch, "laptop", 2)};
+  sc.people = {p};
+  ObjectSpec book = object("book", ObjectKind::kBook, 16, 6);
+  book.owner = "P";
+  book.authorised = false;
+  ObjectSpec bottle = object("bottle", ObjectKind::kBottle, 16, 4);
+  bottle.authorised = true;
+  ObjectSpec laptop = object("laptop", ObjectKind::kLaptop, 20, 8);
+  laptop.authorised = false;
+  sc.objects = {book, bottle, laptop};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  run(*w, [](const World&) {});
+  ASSERT_EQ(w->events().size(), 1u);
+  EXPECT_EQ(w->events()[0].kind, "unauthorised_object");
+  EXPECT_EQ(w->events()[0].object, "laptop");
+  EXPECT_NEAR(w->events()[0].where.x, 20, 1e-6);
+  // The person walked to within reach of the laptop to touch it.
+  size_t touches = 0;
+  for (const auto& a : w->actions()) touches += a.action == "touch";
+  EXPECT_EQ(touches, 2u);
+}
+
+TEST(World, UnreachablePlaceIsAnErrorNamingTheScenarioLine) {
+  Scenario sc = base_scenario(20);
+  PersonSpec p = person("P", 3, 3);
+  Action a = walk(30, 30);  // outside the map
+  a.line = 17;
+  p.script = {a};
+  sc.people = {p};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  Status s;
+  while (!w->finished() && s.ok()) s = w->advance();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().str().find("world_test.yaml:17"), std::string::npos) << s.error().str();
+  EXPECT_NE(s.error().str().find("cannot reach"), std::string::npos);
+}
+
+TEST(World, RobotOdometryDriftsByItsBias) {
+  Scenario sc = base_scenario(25);
+  RobotSpec r;
+  r.id = "r1";
+  r.urdf = test::source_dir() / "maps/robots/erratic.urdf";
+  r.start = {3, 6, 0};
+  r.controller = "waypoint_follower";
+  r.params["points"] = {std::vector<double>{9, 6}, 1};
+  r.params["loop"] = {false, 1};
+  r.odometry.error_x = 0.05;
+  r.odometry.error_yaw = 0.1;
+  sc.robots = {r};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  run(*w, [](const World& world) {
+    ASSERT_TRUE(world.map().is_free(world.robots()[0].state.pose.position()));
+  });
+  const auto& st = w->robots()[0].state;
+  EXPECT_NEAR(st.pose.x, 9, 0.35);  // reached its waypoint (0.4 m/s for about 6 m)
+  EXPECT_NEAR(st.pose.y, 6, 0.2);
+  // Odometry follows the true path with the drawn bias: off, but within 5% of the distance.
+  const double odo_err = (st.odometry.position() - st.pose.position()).norm();
+  EXPECT_GT(odo_err, 1e-4);
+  EXPECT_LT(odo_err, 0.05 * 6 + 0.05);
+}
+
+TEST(World, SameSeedSameHashOtherSeedWithNoiseDiffers) {
+  Scenario sc = base_scenario(15);
+  PersonSpec a = person("A", 2, 6);
+  a.script = {walk(20, 9)};
+  sc.people = {a};
+  for (int i = 0; i < 3; ++i) {
+    RobotSpec r;
+    r.id = "r" + std::to_string(i);
+    r.urdf = test::source_dir() / "maps/robots/erratic.urdf";
+    r.start = {4.0 + 2 * i, 3, 0.3 * i};
+    r.controller = "wander";
+    r.ranger.enabled = true;
+    r.ranger.noise_std = 0.01;
+    r.odometry.error_x = 0.02;
+    r.odometry.error_yaw = 0.05;
+    sc.robots.push_back(r);
+  }
+  RunOptions ro;
+  ro.world.plugin_dirs = {test::plugin_dir()};
+  auto first = run_scenario(sc, ro);
+  auto second = run_scenario(sc, ro);
+  ASSERT_TRUE(first.ok()) << first.error().str();
+  ASSERT_TRUE(second.ok());
+  EXPECT_EQ(first->ground_truth_sha256, second->ground_truth_sha256);
+  EXPECT_EQ(first->ground_truth_sha256.size(), 64u);
+  ro.seed = 4;
+  auto other = run_scenario(sc, ro);
+  ASSERT_TRUE(other.ok());
+  EXPECT_NE(first->ground_truth_sha256, other->ground_truth_sha256);
+  EXPECT_EQ(first->steps, 1500u);
+}
+
+}  // namespace vigil

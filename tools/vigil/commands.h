@@ -1,0 +1,24 @@
+// The `vigil` subcommands. Each add_* registers one subcommand (and its callback) on the app;
+// callbacks throw vigil::cli::Exit with the process exit code.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "world/status.h"
+
+namespace vigil::cli {
+
+// Thrown by a subcommand to end the program with `code` after printing its message.
+struct Exit {
+  int code;
+};
+
+// Prints an Error to stderr and returns its exit code (2 bad input, 1 internal).
+int report(const Error& e);
+
+void add_run_command(CLI::App& app);       // vigil run SCENARIO
+void add_validate_command(CLI::App& app);  // vigil validate FILE...
+void add_map_command(CLI::App& app);       // vigil map info|export
+void add_bench_command(CLI::App& app);     // vigil bench sim
+
+}  // namespace vigil::cli

@@ -1,0 +1,130 @@
+// Player/Stage-style plugins. A plugin is attached to one model of the scenario (a robot's
+// controller, a camera's vision sensor model), configured from the scenario's parameters, reset
+// at the start of a run, and updated every simulation step with read access to the world and a
+// command channel to its own model. Plugins are shared libraries exporting one entry point,
+// `vigil_plugin_entry`, loaded by name from a search path; built-in ones are also reachable from
+// a static registry.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "world/geometry.h"
+#include "world/map.h"
+#include "world/params.h"
+#include "world/status.h"
+
+namespace vigil {
+
+// Bumped whenever the Plugin interface changes; a library built for another version is refused.
+constexpr int kPluginAbiVersion = 1;
+
+// One laser scan, after Stage's ranger / ROS sensor_msgs/LaserScan.
+struct LaserScan {
+  SimTime stamp = 0;
+  double angle_min = 0, angle_increment = 0;  // rad, in the robot frame
+  double range_min = 0, range_max = 0;        // m
+  std::vector<float> ranges;                  // m; range_max where nothing was hit
+};
+
+// What a robot's controller may read of its own robot.
+struct RobotState {
+  std::string id;
+  Pose2 pose;        // true pose (ground truth; a localisation plugin may be used instead)
+  Pose2 odometry;    // odometric pose estimate, starting at the true start pose
+  double v = 0, w = 0;  // current linear and angular velocity
+  const LaserScan* scan = nullptr;  // latest scan, null when the robot has no ranger
+};
+
+// Read-only access to the world, as plugins see it.
+class WorldView {
+ public:
+  virtual ~WorldView() = default;
+  virtual SimTime time() const = 0;
+  virtual SimTime step_length() const = 0;  // fixed physics step
+  virtual const OccupancyGrid& map() const = 0;
+  virtual std::optional<Vec2> place(const std::string& name) const = 0;
+  virtual const RobotState* robot(const std::string& id) const = 0;
+};
+
+// The command channel to the plugin's own model.
+class ModelCommand {
+ public:
+  virtual ~ModelCommand() = default;
+  // Velocity command for a differential-drive robot (clamped to its limits).
+  virtual void set_velocity(double v, double w) = 0;
+};
+
+// What a plugin learns about its model when configured.
+struct PluginContext {
+  std::string model_id;
+  std::string scenario_file;
+  int line = 0;                                 // where the model is declared
+  const OccupancyGrid* map = nullptr;
+  const std::map<std::string, Vec2>* places = nullptr;
+  uint64_t seed = 0;                            // this plugin's own seed, derived from the run's
+};
+
+class Plugin {
+ public:
+  virtual ~Plugin() = default;
+  // The parameters this plugin accepts, with defaults and ranges.
+  virtual std::vector<ParamSpec> params() const = 0;
+  // Takes checked parameters; errors (e.g. a waypoint place that does not exist) name the key.
+  virtual Status configure(const ParamSet& params, const PluginContext& ctx) = 0;
+  // Back to the state just after configure.
+  virtual void reset() = 0;
+  // Called once per simulation step.
+  virtual void update(const WorldView& world, ModelCommand& cmd) = 0;
+};
+
+using PluginFactory = std::unique_ptr<Plugin> (*)();
+
+// What a plugin library's `vigil_plugin_entry` returns.
+struct PluginEntry {
+  int abi_version;
+  const char* name;
+  Plugin* (*create)();  // caller owns the result
+};
+extern "C" {
+using PluginEntryFn = const PluginEntry* (*)();
+}
+
+// Finds plugins by name: the static registry first, then `lib<name>.so` or
+// `libvigil_plugin_<name>.so` in each search directory.
+class PluginRegistry {
+ public:
+  PluginRegistry() = default;  // empty: call register_builtin_plugins() to add the built-ins
+  ~PluginRegistry();
+  PluginRegistry(const PluginRegistry&) = delete;
+  PluginRegistry& operator=(const PluginRegistry&) = delete;
+
+  void add_builtin(const std::string& name, std::function<std::unique_ptr<Plugin>()> factory);
+  void add_search_dir(const std::filesystem::path& dir);
+  // Only the shared-library search, skipping the static registry (used by tests).
+  void set_prefer_shared(bool prefer) { prefer_shared_ = prefer; }
+
+  bool exists(const std::string& name) const;
+  Result<std::unique_ptr<Plugin>> create(const std::string& name);
+  // Where the last created plugin of that name came from: "builtin" or the .so path.
+  std::string origin(const std::string& name) const;
+  std::vector<std::string> builtin_names() const;
+
+ private:
+  std::optional<std::filesystem::path> find_library(const std::string& name) const;
+  std::map<std::string, std::function<std::unique_ptr<Plugin>()>> builtins_;
+  std::vector<std::filesystem::path> search_dirs_;
+  std::map<std::string, void*> handles_;  // dlopen handles, closed at destruction
+  std::map<std::string, std::string> origins_;
+  bool prefer_shared_ = false;
+};
+
+// Registers the plugins compiled into vigil_plugins_builtin (defined there).
+void register_builtin_plugins(PluginRegistry& registry);
+
+}  // namespace vigil

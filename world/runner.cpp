@@ -1,0 +1,116 @@
+#include "world/runner.h"
+
+#include <chrono>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "world/ground_truth.h"
+#include "world/topdown.h"
+
+namespace vigil {
+
+std::string RunSummary::to_json() const {
+  nlohmann::ordered_json j;
+  j["scenario"] = scenario;
+  j["sim_seconds"] = sim_seconds;
+  j["wall_seconds"] = wall_seconds;
+  j["real_time_factor"] = real_time_factor;
+  j["steps"] = steps;
+  j["seed"] = seed;
+  j["ground_truth_sha256"] = ground_truth_sha256;
+  j["ground_truth_lines"] = ground_truth_lines;
+  j["robots"] = robots;
+  j["people"] = people;
+  j["objects"] = objects;
+  j["cameras"] = cameras;
+  j["events"] = events;
+  return j.dump(2) + "\n";
+}
+
+Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
+  if (options.seed) scenario.seed = *options.seed;
+  if (options.duration) {
+    if (!(*options.duration > 0)) return bad_input("", 0, "--duration", "must be positive");
+    scenario.duration = *options.duration;
+  }
+  auto created = World::create(scenario, options.world);
+  if (!created) return created.error();
+  World& world = **created;
+
+  const auto& out = options.out_dir;
+  if (!out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(out, ec);
+    if (ec) return bad_input(out.string(), 0, "--out", "cannot create folder: " + ec.message());
+  }
+  GroundTruthLog log;
+  if (Status s = log.open(out.empty() ? std::filesystem::path() : out / "ground_truth.jsonl"); !s) return s.error();
+
+  std::unique_ptr<TopdownRenderer> topdown;
+  cv::VideoWriter video;
+  if (options.video && !out.empty()) {
+    topdown = std::make_unique<TopdownRenderer>(world);
+    const auto path = (out / "topdown.avi").string();
+    // OpenCV's own MJPEG writer: no codec library needed.
+    if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                    scenario.record_rate_hz, topdown->size())) {
+      return internal_error("cannot open video writer for " + path);
+    }
+  }
+
+  const SimTime record_every = std::max<SimTime>(world.step_length(), from_seconds(1.0 / scenario.record_rate_hz));
+  SimTime next_record = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  double next_progress = options.progress_interval_s;
+  const double total = to_seconds(world.end_time());
+  cv::Mat last_frame;
+  while (true) {
+    if (world.time() >= next_record) {
+      log.write_tick(world);
+      if (topdown) {
+        last_frame = topdown->draw(world);
+        video.write(last_frame);
+      }
+      next_record += record_every;
+    }
+    if (world.finished()) break;
+    if (Status s = world.advance(); !s) return s.error();
+    if (options.progress && wall() >= next_progress) {
+      options.progress(to_seconds(world.time()), total, wall());
+      next_progress = wall() + options.progress_interval_s;
+    }
+  }
+  log.write_timeline(world);
+  if (Status s = log.close(); !s) return s.error();
+  if (topdown) {
+    video.release();
+    cv::imwrite((out / "topdown.png").string(), topdown->draw(world));
+  }
+
+  RunSummary sum;
+  sum.scenario = scenario.name;
+  sum.sim_seconds = to_seconds(world.time());
+  sum.wall_seconds = wall();
+  sum.real_time_factor = sum.wall_seconds > 0 ? sum.sim_seconds / sum.wall_seconds : 0;
+  sum.steps = world.steps();
+  sum.seed = scenario.seed;
+  sum.ground_truth_sha256 = log.sha256();
+  sum.ground_truth_lines = log.lines();
+  sum.robots = world.robots().size();
+  sum.people = world.people().size();
+  sum.objects = world.objects().size();
+  sum.cameras = scenario.cameras.size();
+  sum.events = world.events().size();
+  if (options.progress) options.progress(sum.sim_seconds, total, sum.wall_seconds);
+  if (!out.empty()) {
+    std::ofstream f(out / "summary.json");
+    f << sum.to_json();
+    if (!f) return internal_error("cannot write " + (out / "summary.json").string());
+  }
+  return sum;
+}
+
+}  // namespace vigil

@@ -1,0 +1,42 @@
+// Runs a scenario headless from start to end: steps the world, records ground truth at the
+// scenario's record rate, draws the top-down video, and writes ground_truth.jsonl, topdown.avi,
+// topdown.png and summary.json into the output folder.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "world/scenario.h"
+#include "world/status.h"
+#include "world/world.h"
+
+namespace vigil {
+
+struct RunOptions {
+  std::filesystem::path out_dir;       // empty: write nothing (hash only)
+  std::optional<uint64_t> seed;        // overrides the scenario's
+  std::optional<double> duration;      // s, overrides the scenario's
+  bool video = true;                   // topdown.avi and topdown.png
+  WorldOptions world;
+  // Called about every `progress_interval_s` of wall time with (sim s, total sim s, wall s).
+  std::function<void(double, double, double)> progress;
+  double progress_interval_s = 0.5;
+};
+
+struct RunSummary {
+  std::string scenario;
+  double sim_seconds = 0, wall_seconds = 0, real_time_factor = 0;
+  uint64_t steps = 0;
+  uint64_t seed = 0;
+  std::string ground_truth_sha256;
+  uint64_t ground_truth_lines = 0;
+  size_t robots = 0, people = 0, objects = 0, cameras = 0, events = 0;
+  // summary.json's text (stable key order, two-space indent).
+  std::string to_json() const;
+};
+
+Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options);
+
+}  // namespace vigil

@@ -1,0 +1,35 @@
+// Top-down view of a running world, drawn with OpenCV: the map, camera fields of view (clipped by
+// walls), laser scans, robots with their heading, people in their shirt colour with a trail,
+// objects by kind, and the time. Used for topdown.avi and the final topdown.png.
+#pragma once
+
+#include <deque>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "world/world.h"
+
+namespace vigil {
+
+// "#rrggbb" to an OpenCV BGR colour (grey when malformed).
+cv::Scalar parse_colour(const std::string& hex);
+
+class TopdownRenderer {
+ public:
+  // Picks a scale so the map is at most `max_width` x `max_height` pixels.
+  explicit TopdownRenderer(const World& world, int max_width = 1280, int max_height = 960);
+  // Draws the world as it is now (BGR, 8-bit).
+  cv::Mat draw(const World& world);
+  cv::Size size() const { return background_.size(); }
+
+ private:
+  cv::Point to_px(Vec2 p) const;
+  cv::Mat background_;
+  double scale_ = 20;  // pixels per metre
+  Vec2 origin_;
+  double height_m_ = 0;
+  std::vector<std::deque<cv::Point>> trails_;  // per person
+};
+
+}  // namespace vigil

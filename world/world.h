@@ -1,0 +1,176 @@
+// The simulated world: a Box2D world with the map's walls as static bodies, differential-drive
+// robots driven by controller plugins, people moved by their scripts (along grid paths, never
+// through walls, keeping apart from each other), and objects that stand on the floor or on
+// furniture or are carried. A fixed-step loop in integer nanoseconds; every random draw comes
+// from the run's seed. The world also derives the ground-truth event timeline (left bag, bag
+// taken, exchange, unauthorised object) from what the scripts make people do.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "world/floorplan.h"
+#include "world/geometry.h"
+#include "world/map.h"
+#include "world/plugin.h"
+#include "world/ranger.h"
+#include "world/rng.h"
+#include "world/robot_model.h"
+#include "world/scenario.h"
+#include "world/status.h"
+
+class b2World;
+class b2Body;
+
+namespace vigil {
+
+enum class EntityKind { kRobot, kPerson, kObject };
+const char* to_string(EntityKind k);
+
+struct RobotEntity {
+  RobotSpec spec;
+  RobotModel model;
+  b2Body* body = nullptr;
+  RobotState state;      // what the controller reads
+  LaserScan scan;
+  SimTime next_scan = 0;
+  double cmd_v = 0, cmd_w = 0;
+  double odom_bias_x = 0, odom_bias_y = 0, odom_bias_yaw = 0;
+  Rng rng;
+  std::unique_ptr<Plugin> controller;
+  Pose2 laser_pose() const;  // the laser's pose in the map frame
+};
+
+struct PersonEntity {
+  PersonSpec spec;
+  b2Body* body = nullptr;
+  bool present = false;  // in the world now
+  bool gone = false;     // has left
+  Pose2 pose;
+  Vec2 velocity;
+  double walked = 0;     // metres walked (drives the renderer's gait)
+  size_t step_index = 0; // current script step
+  enum class Phase { kStart, kWalking, kActing, kDone } phase = Phase::kStart;
+  bool approaching = false;  // walking to reach an object or drop point before acting
+  std::vector<Vec2> path;
+  size_t path_index = 0;
+  SimTime phase_end = 0;
+  double hand_seconds = 0;  // how long the pending hand action takes once within reach
+  Vec2 reach_target;        // what the pending hand action reaches for
+  SimTime progress_check = 0;
+  double progress_distance = 0;
+  std::vector<int> carrying;  // object indices
+};
+
+struct ObjectEntity {
+  ObjectSpec spec;
+  Pose2 pose;
+  double z = 0;          // height of the object's base above the floor
+  int carrier = -1;      // person index while carried
+  b2Body* body = nullptr;  // on the floor only
+  bool present = true;   // false once carried out of the world
+  std::string last_carrier;  // id of the last person who carried it ("" = none yet)
+};
+
+// A primitive action performed by a person, as it happened.
+struct ActionRecord {
+  SimTime t = 0;
+  std::string person;
+  std::string action;  // appear, pick_up, put_down, touch, leave
+  std::string object;
+  Vec2 where;
+};
+
+// A ground-truth event: what the activity rules should report.
+struct GroundTruthEvent {
+  std::string kind;      // left_bag, bag_taken, exchange, unauthorised_object
+  SimTime t = 0;         // the moment the situation arose
+  SimTime confirmed = 0; // the moment the rule's own thresholds are met (left_bag: t + T)
+  std::vector<std::string> people;  // left_bag: owner; bag_taken: taker; exchange: from, to
+  std::string object;
+  std::string owner;     // the object's owner or last carrier, if any
+  Vec3 where;            // map frame
+};
+
+struct WorldOptions {
+  std::vector<std::filesystem::path> plugin_dirs;
+  bool prefer_shared_plugins = false;  // load controllers from .so even when built in
+  bool controllers = true;             // false: robots stand still (tests)
+};
+
+class World : public WorldView {
+ public:
+  // Builds the world: loads the map and robot models, creates bodies, loads and configures
+  // plugins. Errors name the scenario file, line and key.
+  static Result<std::unique_ptr<World>> create(const Scenario& scenario, const WorldOptions& options = {});
+  ~World() override;
+
+  // Advances one fixed step. Fails only on a run-time impossibility in the scripts (a place a
+  // person cannot reach from where they are), naming the scenario line.
+  Status advance();
+  bool finished() const { return time_ >= end_time_; }
+  SimTime end_time() const { return end_time_; }
+  uint64_t steps() const { return steps_; }
+
+  // WorldView
+  SimTime time() const override { return time_; }
+  SimTime step_length() const override { return dt_; }
+  const OccupancyGrid& map() const override { return map_; }
+  std::optional<Vec2> place(const std::string& name) const override;
+  const RobotState* robot(const std::string& id) const override;
+
+  const Scenario& scenario() const { return scenario_; }
+  const std::vector<RobotEntity>& robots() const { return robots_; }
+  const std::vector<PersonEntity>& people() const { return people_; }
+  const std::vector<ObjectEntity>& objects() const { return objects_; }
+  const std::vector<ActionRecord>& actions() const { return actions_; }
+  // Events so far, in the order they arose (sorted by t at the end of the run).
+  const std::vector<GroundTruthEvent>& events() const { return events_; }
+  const std::vector<WallBox>& walls() const { return walls_; }
+  size_t plugin_count() const;
+
+ private:
+  World() = default;
+  Status build(const WorldOptions& options);
+  Status step_person(int i);
+  void step_robots_control();
+  void step_robots_sense();
+  void update_carried();
+  void monitor_events();
+  Status start_action(int i);
+  Status plan_walk(int i, Vec2 goal, int line, const std::string& what);
+  std::optional<Vec2> approach_point(int i, Vec2 target) const;
+  void finish_action(int i);
+  void place_object_on_floor(int o, Vec2 where);
+  void remove_object_body(int o);
+  int find_object(const std::string& id) const;
+  int find_person(const std::string& id) const;
+  double object_height_at(Vec2 where, std::string* furniture) const;
+
+  Scenario scenario_;
+  OccupancyGrid map_;
+  std::vector<WallBox> walls_;
+  std::vector<FloorplanFurniture> furniture_;  // from a floorplan map; empty otherwise
+  std::unique_ptr<GridPathPlanner> person_paths_;
+  std::unique_ptr<b2World> b2_;
+  std::unique_ptr<PluginRegistry> registry_;
+  std::unique_ptr<ObstacleIndex> bodies_index_;
+  std::vector<RobotEntity> robots_;
+  std::vector<PersonEntity> people_;
+  std::vector<ObjectEntity> objects_;
+  std::vector<ActionRecord> actions_;
+  std::vector<GroundTruthEvent> events_;
+  struct LeftBagWatch {
+    int object;
+    int person;
+    SimTime away_since = -1;
+  };
+  std::vector<LeftBagWatch> left_bag_watches_;
+  SimTime time_ = 0, dt_ = 10'000'000, end_time_ = 0;
+  uint64_t steps_ = 0;
+};
+
+}  // namespace vigil
