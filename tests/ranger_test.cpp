@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "world/ranger.h"
+#include "world/rng.h"
 
 namespace vigil {
 namespace {
@@ -48,6 +49,7 @@ TEST(Ranger, IndexFindsNearestAndSkipsOwner) {
 
 TEST(Ranger, ScanInKnownRoom) {
   const OccupancyGrid g = room();
+  const WallRaycaster walls(g);
   ObstacleIndex idx({0, 0}, {10, 6}, 1.0);
   RangeObstacle person;
   person.center = {5, 4.5};
@@ -60,19 +62,20 @@ TEST(Ranger, ScanInKnownRoom) {
   spec.range_max = 20;
   LaserScan scan;
   // Sensor at (2, 3) facing +x: wall at x = 9.9 straight ahead, side walls 2.9 m away.
-  simulate_scan(g, idx, {2, 3, 0}, spec, -1, nullptr, 0, &scan);
+  simulate_scan(walls, idx, {2, 3, 0}, spec, -1, nullptr, 0, &scan);
   ASSERT_EQ(scan.ranges.size(), 181u);
   EXPECT_NEAR(scan.angle_min, -M_PI / 2, 1e-12);
   EXPECT_NEAR(scan.ranges[90], 7.9, 0.05);
   EXPECT_NEAR(scan.ranges[0], 2.9, 0.05);
   EXPECT_NEAR(scan.ranges[180], 2.9, 0.05);
   // Facing +y from (5, 2): the person's disc at 2.5 m, nearer than the wall at 3.9 m.
-  simulate_scan(g, idx, {5, 2, M_PI / 2}, spec, -1, nullptr, 0, &scan);
+  simulate_scan(walls, idx, {5, 2, M_PI / 2}, spec, -1, nullptr, 0, &scan);
   EXPECT_NEAR(scan.ranges[90], 2.25, 1e-4);
 }
 
 TEST(Ranger, NoiseIsSeededAndClamped) {
   const OccupancyGrid g = room();
+  const WallRaycaster walls(g);
   ObstacleIndex idx({0, 0}, {10, 6}, 1.0);
   idx.rebuild({});
   RangerSpec spec;
@@ -81,15 +84,39 @@ TEST(Ranger, NoiseIsSeededAndClamped) {
   spec.range_max = 4.0;
   LaserScan a, b, c;
   Rng r1(7), r2(7), r3(8);
-  simulate_scan(g, idx, {2, 3, 0}, spec, -1, &r1, 0, &a);
-  simulate_scan(g, idx, {2, 3, 0}, spec, -1, &r2, 0, &b);
-  simulate_scan(g, idx, {2, 3, 0}, spec, -1, &r3, 0, &c);
+  simulate_scan(walls, idx, {2, 3, 0}, spec, -1, &r1, 0, &a);
+  simulate_scan(walls, idx, {2, 3, 0}, spec, -1, &r2, 0, &b);
+  simulate_scan(walls, idx, {2, 3, 0}, spec, -1, &r3, 0, &c);
   EXPECT_EQ(a.ranges, b.ranges);
   EXPECT_NE(a.ranges, c.ranges);
   for (float r : a.ranges) {
     EXPECT_GE(r, spec.range_min);
     EXPECT_LE(r, spec.range_max);
   }
+}
+
+TEST(Ranger, AcceleratedWallRaysMatchExactGridTraversal) {
+  // A cluttered map: the room plus pillars and thin walls at seeded random places.
+  OccupancyGrid g = room();
+  Rng rng(11);
+  for (int k = 0; k < 60; ++k) {
+    const int x0 = static_cast<int>(rng.uniform(4, 190)), y0 = static_cast<int>(rng.uniform(4, 110));
+    const int w = static_cast<int>(rng.uniform(1, 8)), h = static_cast<int>(rng.uniform(1, 8));
+    for (int y = y0; y < std::min(118, y0 + h); ++y)
+      for (int x = x0; x < std::min(198, x0 + w); ++x) g.set(x, y, Cell::kOccupied);
+  }
+  const WallRaycaster walls(g);
+  int checked = 0;
+  for (int k = 0; k < 5000; ++k) {
+    const Vec2 o{rng.uniform(0.2, 9.8), rng.uniform(0.2, 5.8)};
+    if (!g.is_free(o)) continue;
+    const double a = rng.uniform(-M_PI, M_PI);
+    const double max_range = rng.uniform(0.5, 12.0);
+    ASSERT_NEAR(walls.raycast(o, a, max_range), g.raycast(o, a, max_range), 1e-6)
+        << "from " << o.x << ", " << o.y << " angle " << a;
+    ++checked;
+  }
+  EXPECT_GT(checked, 3000);
 }
 
 }  // namespace vigil

@@ -98,7 +98,10 @@ void GroundTruthLog::write_timeline(const World& world) {
   }
   for (const auto& e : world.events()) {
     std::string people;
-    for (const auto& p : e.people) people += (people.empty() ? "" : ",") + quoted(p);
+    for (const auto& p : e.people) {
+      if (!people.empty()) people += ',';
+      people += quoted(p);
+    }
     emit("{\"type\":\"event\",\"kind\":" + quoted(e.kind) + ",\"t_ns\":" + std::to_string(e.t) +
          ",\"confirmed_ns\":" + std::to_string(e.confirmed) + ",\"people\":[" + people + "],\"object\":" +
          quoted(e.object) + ",\"owner\":" + quoted(e.owner) + ",\"x\":" + fixed4(e.where.x) + ",\"y\":" +

@@ -57,20 +57,23 @@ class OccupancyGrid {
   std::vector<uint8_t> cells_;  // row-major, row 0 at the bottom (smallest y)
 };
 
-// Loads a ROS map_server YAML file and the PGM/PNG image it names (`image`, `resolution`,
-// `origin`, `negate`, `occupied_thresh`, `free_thresh`, optional `mode: trinary`). Errors name
-// the YAML file, line and key, or the image file.
+// Loads a ROS map_server YAML file and the PGM (P5/P2) or PNG image it names, relative to the
+// YAML's folder (`image`, `resolution`, `origin` with yaw 0, `negate`, `occupied_thresh`,
+// `free_thresh`, optional `mode`: trinary, or scale read as trinary; raw is refused). With
+// p = (255 - grey) / 255 (grey / 255 if negate): p > occupied_thresh is occupied, p < free_thresh
+// free, else unknown. Errors name the YAML file, line and key, or the image file.
 Result<OccupancyGrid> load_map_yaml(const std::filesystem::path& yaml_path);
 
 // Loads the `floorplan` of a Stage worldfile (`bitmap`, `size`, `pose`): the bitmap scaled to
-// `size` metres and centred at `pose`. Dark pixels (< 50% grey) are walls, as in Stage.
+// `size` metres and centred at `pose`. Dark pixels (< 50% grey) are walls, as in Stage; the rest
+// is free. `include`s and other blocks are ignored; cells must be square (within 2%).
 Result<OccupancyGrid> load_stage_world(const std::filesystem::path& world_path);
 
 // Loads either format, chosen by extension (.yaml/.yml or .world).
 Result<OccupancyGrid> load_map(const std::filesystem::path& path);
 
-// Writes map_server YAML + PGM (free 254, occupied 0, unknown 205). `image_name` is the PGM's
-// file name, written beside the YAML.
+// Writes map_server YAML + PGM (free 254, occupied 0, unknown 205; thresholds 0.65 / 0.196).
+// The PGM is named after the YAML (`map.yaml` -> `map.pgm`) and written beside it.
 Status save_map_yaml(const OccupancyGrid& grid, const std::filesystem::path& yaml_path);
 
 // An axis-aligned wall rectangle in the map frame.
@@ -84,7 +87,8 @@ std::vector<WallBox> extract_wall_boxes(const OccupancyGrid& grid);
 
 // Paths on the grid for scripted people: A* (8-connected, octile distance) over cells whose
 // clearance from walls and unknown space is at least `clearance` metres, then shortened by
-// line-of-sight. The clearance field is computed once at construction.
+// line-of-sight. The clearance field is computed once at construction; the grid must outlive
+// the planner. Clearance is measured between cell centres, and the grid's edge counts as unknown.
 class GridPathPlanner {
  public:
   GridPathPlanner(const OccupancyGrid& grid, double clearance);

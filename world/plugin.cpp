@@ -17,7 +17,7 @@ void PluginRegistry::add_search_dir(const std::filesystem::path& dir) { search_d
 
 std::optional<std::filesystem::path> PluginRegistry::find_library(const std::string& name) const {
   for (const auto& dir : search_dirs_) {
-    for (const std::string file : {"libvigil_plugin_" + name + ".so", "lib" + name + ".so"}) {
+    for (const std::string& file : {"libvigil_plugin_" + name + ".so", "lib" + name + ".so"}) {
       std::error_code ec;
       if (std::filesystem::is_regular_file(dir / file, ec)) return dir / file;
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 namespace vigil {
 namespace {
@@ -65,9 +66,8 @@ void ObstacleIndex::rebuild(const std::vector<RangeObstacle>& obstacles) {
   }
 }
 
-double ObstacleIndex::raycast(Vec2 o, double angle, double max_range, int skip_owner) const {
+double ObstacleIndex::raycast_dir(Vec2 o, Vec2 d, double max_range, int skip_owner) const {
   if (obstacles_.empty()) return kInf;
-  const Vec2 d{std::cos(angle), std::sin(angle)};
   // Amanatides-Woo over the buckets, stopping once the best hit is closer than the next cell.
   double gx = (o.x - min_.x) / cell_, gy = (o.y - min_.y) / cell_;
   int cx = static_cast<int>(std::floor(gx)), cy = static_cast<int>(std::floor(gy));
@@ -105,7 +105,70 @@ double ObstacleIndex::raycast(Vec2 o, double angle, double max_range, int skip_o
   return best <= max_range ? best : kInf;
 }
 
-void simulate_scan(const OccupancyGrid& map, const ObstacleIndex& bodies, Pose2 sensor,
+WallRaycaster::WallRaycaster(const OccupancyGrid& map)
+    : map_(&map), width_(map.width()), height_(map.height()) {
+  cv::Mat free_mask(map.height(), map.width(), CV_8U);
+  for (int cy = 0; cy < height_; ++cy) {
+    auto* row = free_mask.ptr<uint8_t>(cy);
+    for (int cx = 0; cx < width_; ++cx) row[cx] = map.at(cx, cy) == Cell::kOccupied ? 0 : 255;
+  }
+  cv::Mat dist;
+  cv::distanceTransform(free_mask, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  field_.resize(static_cast<size_t>(width_) * height_);
+  for (size_t i = 0; i < field_.size(); ++i) {
+    const float f = dist.ptr<float>()[i];
+    field_[i] = static_cast<uint8_t>(std::min(255.0f, std::floor(f)));
+  }
+}
+
+double WallRaycaster::raycast_dir(Vec2 from, Vec2 d, double max_range) const {
+  // Everything in cell units: grid coordinates (u, v), ray parameter t.
+  constexpr float kLeapCells = 3.0f;    // leap only where the nearest wall is at least this far
+  constexpr float kSafetyCells = 1.5f;  // both cells' half-diagonals, rounded up
+  constexpr int kExactCells = 12;       // cells walked exactly before looking at the field again
+  const double res = map_->resolution();
+  const double u0 = (from.x - map_->origin().x) / res, v0 = (from.y - map_->origin().y) / res;
+  const double max_t = max_range / res;
+  if (!(max_t > 0)) return 0;
+  const int step_x = d.x > 0 ? 1 : (d.x < 0 ? -1 : 0);
+  const int step_y = d.y > 0 ? 1 : (d.y < 0 ? -1 : 0);
+  const double inv_x = step_x ? 1.0 / d.x : 0, inv_y = step_y ? 1.0 / d.y : 0;
+  double t = 0;
+  int cx = static_cast<int>(std::floor(u0)), cy = static_cast<int>(std::floor(v0));
+  if (cx < 0 || cy < 0 || cx >= width_ || cy >= height_) return 0;
+  if (field_[static_cast<size_t>(cy) * width_ + cx] == 0) return 0;
+  while (true) {
+    const float field = field_[static_cast<size_t>(cy) * width_ + cx];
+    if (field >= kLeapCells) {
+      // Leap, then find the cell the ray is in (never back before t).
+      t += field - kSafetyCells;
+      if (t >= max_t) return max_range;
+      cx = static_cast<int>(std::floor(u0 + d.x * t));
+      cy = static_cast<int>(std::floor(v0 + d.y * t));
+      if (cx < 0 || cy < 0 || cx >= width_ || cy >= height_) break;
+      continue;
+    }
+    // Exact traversal (Amanatides-Woo) from the current cell; boundaries recomputed from the
+    // integer cell index so no error accumulates.
+    for (int k = 0; k < kExactCells; ++k) {
+      const double tx = step_x ? ((step_x > 0 ? cx + 1 : cx) - u0) * inv_x : INFINITY;
+      const double ty = step_y ? ((step_y > 0 ? cy + 1 : cy) - v0) * inv_y : INFINITY;
+      if (tx < ty) {
+        t = tx;
+        cx += step_x;
+      } else {
+        t = ty;
+        cy += step_y;
+      }
+      if (t >= max_t) return max_range;
+      if (cx < 0 || cy < 0 || cx >= width_ || cy >= height_) return t * res;  // grid edge
+      if (field_[static_cast<size_t>(cy) * width_ + cx] == 0) return t * res;
+    }
+  }
+  return std::min(max_range, t * res);
+}
+
+void simulate_scan(const WallRaycaster& walls, const ObstacleIndex& bodies, Pose2 sensor,
                    const RangerSpec& spec, int self, Rng* rng, SimTime stamp, LaserScan* scan) {
   const int n = std::max(1, spec.samples);
   scan->stamp = stamp;
@@ -117,8 +180,9 @@ void simulate_scan(const OccupancyGrid& map, const ObstacleIndex& bodies, Pose2 
   const Vec2 o = sensor.position();
   for (int i = 0; i < n; ++i) {
     const double a = sensor.yaw + scan->angle_min + i * scan->angle_increment;
-    double r = map.raycast(o, a, spec.range_max);
-    r = std::min(r, bodies.raycast(o, a, r, self));
+    const Vec2 d{std::cos(a), std::sin(a)};
+    double r = walls.raycast_dir(o, d, spec.range_max);
+    r = std::min(r, bodies.raycast_dir(o, d, r, self));
     if (spec.noise_std > 0 && rng && r < spec.range_max) r += rng->normal(0.0, spec.noise_std);
     scan->ranges[i] = static_cast<float>(std::clamp(r, spec.range_min, spec.range_max));
   }

@@ -120,6 +120,8 @@ Status World::build(const WorldOptions& options) {
       Vec2{map_.origin().x, map_.origin().y},
       Vec2{map_.origin().x + map_.size_x(), map_.origin().y + map_.size_y()}, 1.0);
 
+  wall_rays_ = std::make_unique<WallRaycaster>(map_);
+
   // Robots.
   registry_ = std::make_unique<PluginRegistry>();
   register_builtin_plugins(*registry_);
@@ -596,7 +598,7 @@ void World::step_robots_sense() {
   for (size_t i = 0; i < robots_.size(); ++i) {
     auto& r = robots_[i];
     if (!r.spec.ranger.enabled || time_ < r.next_scan) continue;
-    simulate_scan(map_, *bodies_index_, r.laser_pose(), r.spec.ranger, static_cast<int>(i), &r.rng, time_, &r.scan);
+    simulate_scan(*wall_rays_, *bodies_index_, r.laser_pose(), r.spec.ranger, static_cast<int>(i), &r.rng, time_, &r.scan);
     r.next_scan = time_ + std::max<SimTime>(dt_, from_seconds(1.0 / r.spec.ranger.rate_hz));
   }
 }

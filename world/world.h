@@ -158,6 +158,7 @@ class World : public WorldView {
   std::unique_ptr<b2World> b2_;
   std::unique_ptr<PluginRegistry> registry_;
   std::unique_ptr<ObstacleIndex> bodies_index_;
+  std::unique_ptr<WallRaycaster> wall_rays_;
   std::vector<RobotEntity> robots_;
   std::vector<PersonEntity> people_;
   std::vector<ObjectEntity> objects_;

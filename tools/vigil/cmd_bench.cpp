@@ -80,10 +80,10 @@ void add_bench_command(CLI::App& app) {
       while (static_cast<int>(placed.size()) < n && tries < 2'000'000) {
         ++tries;
         const Vec2 p{grid->origin().x + rng.uniform() * grid->size_x(), grid->origin().y + rng.uniform() * grid->size_y()};
-        if (!grid->is_free_disc(p, 0.45)) continue;
+        if (!grid->is_free_disc(p, 0.32)) continue;
         bool clash = false;
         for (const Vec2& q : placed)
-          if ((q - p).norm() < 0.8) { clash = true; break; }
+          if ((q - p).norm() < 0.65) { clash = true; break; }
         if (clash) continue;
         placed.push_back(p);
         RobotSpec r;
