@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -276,6 +277,36 @@ TEST(World, RobotOdometryDriftsByItsBias) {
   const double odo_err = (st.odometry.position() - st.pose.position()).norm();
   EXPECT_GT(odo_err, 1e-4);
   EXPECT_LT(odo_err, 0.05 * 6 + 0.05);
+}
+
+TEST(World, UnknownSpaceBorderingFreeSpaceIsAWall) {
+  // A free 6 x 4 m area inside unknown space with no wall at all, as SLAM maps have in places.
+  const fs::path dir = fs::temp_directory_path() / ("vigil_world_unknown_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  OccupancyGrid g(200, 120, 0.05, Pose2{0, 0, 0}, Cell::kUnknown);
+  for (int y = 40; y < 80; ++y)
+    for (int x = 40; x < 160; ++x) g.set(x, y, Cell::kFree);
+  ASSERT_TRUE(save_map_yaml(g, dir / "island.yaml").ok());
+  Scenario sc = base_scenario(30);
+  sc.map = dir / "island.yaml";
+  for (int i = 0; i < 3; ++i) {
+    RobotSpec r;
+    r.id = "r" + std::to_string(i);
+    r.urdf = test::source_dir() / "maps/robots/erratic.urdf";
+    r.start = {3.0 + i, 3, 0.5 + i};
+    r.controller = "wander";
+    r.ranger.enabled = true;
+    sc.robots.push_back(r);
+  }
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  run(*w, [&](const World& world) {
+    for (const auto& r : world.robots()) ASSERT_TRUE(g.is_free(r.state.pose.position())) << r.spec.id;
+  });
+  // The laser sees the edge of the known area as a wall.
+  const auto& scan = w->robots()[0].scan;
+  ASSERT_FALSE(scan.ranges.empty());
+  EXPECT_LT(*std::min_element(scan.ranges.begin(), scan.ranges.end()), 4.0f);
 }
 
 TEST(World, SameSeedSameHashOtherSeedWithNoiseDiffers) {

@@ -22,8 +22,11 @@ double ray_hit_circle(Vec2 o, Vec2 d, Vec2 c, double r) {
 }
 
 double ray_hit_box(Vec2 o, Vec2 d, Vec2 c, double yaw, double hx, double hy) {
+  return ray_hit_box(o, d, c, std::cos(yaw), std::sin(yaw), hx, hy);
+}
+
+double ray_hit_box(Vec2 o, Vec2 d, Vec2 c, double cs, double sn, double hx, double hy) {
   // Into the box frame, then a slab test.
-  const double cs = std::cos(yaw), sn = std::sin(yaw);
   const Vec2 rel = o - c;
   const double ox = cs * rel.x + sn * rel.y, oy = -sn * rel.x + cs * rel.y;
   const double dx = cs * d.x + sn * d.y, dy = -sn * d.x + cs * d.y;
@@ -54,6 +57,10 @@ ObstacleIndex::ObstacleIndex(Vec2 bounds_min, Vec2 bounds_max, double cell)
 void ObstacleIndex::rebuild(const std::vector<RangeObstacle>& obstacles) {
   for (auto& b : buckets_) b.clear();
   obstacles_ = obstacles;
+  for (auto& ob : obstacles_) {
+    ob.cos_yaw = std::cos(ob.yaw);
+    ob.sin_yaw = std::sin(ob.yaw);
+  }
   for (int i = 0; i < static_cast<int>(obstacles_.size()); ++i) {
     const auto& ob = obstacles_[i];
     const double r = ob.shape == RangeObstacle::Shape::kCircle ? ob.radius : std::hypot(ob.half_x, ob.half_y);
@@ -85,7 +92,7 @@ double ObstacleIndex::raycast_dir(Vec2 o, Vec2 d, double max_range, int skip_own
         if (skip_owner >= 0 && ob.owner == skip_owner) continue;
         const double t = ob.shape == RangeObstacle::Shape::kCircle
                              ? ray_hit_circle(o, d, ob.center, ob.radius)
-                             : ray_hit_box(o, d, ob.center, ob.yaw, ob.half_x, ob.half_y);
+                             : ray_hit_box(o, d, ob.center, ob.cos_yaw, ob.sin_yaw, ob.half_x, ob.half_y);
         best = std::min(best, t);
       }
     } else if ((cx < 0 && step_x < 0) || (cx >= nx_ && step_x > 0) || (cy < 0 && step_y < 0) ||
@@ -178,9 +185,12 @@ void simulate_scan(const WallRaycaster& walls, const ObstacleIndex& bodies, Pose
   scan->angle_increment = n > 1 ? spec.fov / (n - 1) : 0;
   scan->ranges.resize(n);
   const Vec2 o = sensor.position();
-  for (int i = 0; i < n; ++i) {
-    const double a = sensor.yaw + scan->angle_min + i * scan->angle_increment;
-    const Vec2 d{std::cos(a), std::sin(a)};
+  // Beam directions by rotating the first one by the increment: two sincos per scan, not one per
+  // beam (the rounding this accumulates over a scan is below 1e-13 rad).
+  const double a0 = sensor.yaw + scan->angle_min;
+  const double ci = std::cos(scan->angle_increment), si = std::sin(scan->angle_increment);
+  Vec2 d{std::cos(a0), std::sin(a0)};
+  for (int i = 0; i < n; ++i, d = Vec2{ci * d.x - si * d.y, si * d.x + ci * d.y}) {
     double r = walls.raycast_dir(o, d, spec.range_max);
     r = std::min(r, bodies.raycast_dir(o, d, r, self));
     if (spec.noise_std > 0 && rng && r < spec.range_max) r += rng->normal(0.0, spec.noise_std);

@@ -22,12 +22,16 @@ struct RangeObstacle {
   double radius = 0.25;          // circle
   double half_x = 0, half_y = 0;  // box
   int owner = -1;                // entity index, so a robot's laser skips its own body
+  double cos_yaw = 1, sin_yaw = 0;  // filled by ObstacleIndex::rebuild
 };
 
 // Distance along a unit ray to a disc or box, or +inf when missed (hits behind the origin
 // and from inside do not count).
 double ray_hit_circle(Vec2 origin, Vec2 dir, Vec2 center, double radius);
 double ray_hit_box(Vec2 origin, Vec2 dir, Vec2 center, double yaw, double half_x, double half_y);
+// The same with the box's rotation given as cos and sin of its yaw.
+double ray_hit_box(Vec2 origin, Vec2 dir, Vec2 center, double cos_yaw, double sin_yaw, double half_x,
+                   double half_y);
 
 // Moving bodies bucketed in a uniform grid, rebuilt whenever scans are taken.
 class ObstacleIndex {

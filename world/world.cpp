@@ -11,7 +11,7 @@
 namespace vigil {
 namespace {
 
-constexpr double kReach = 0.8;             // m from a person's centre to an object they handle
+constexpr double kReach = 0.9;             // m from a person's centre to an object they handle
 constexpr double kArrive = 0.12;           // m: a path point counts as reached
 constexpr double kPersonClearance = 0.30;  // m kept from walls on planned paths
 constexpr SimTime kStuckWindow = 2 * kNsPerSecond;
@@ -99,6 +99,22 @@ Status World::build(const WorldOptions& options) {
     auto grid = load_map(scenario_.map);
     if (!grid) return grid.error();
     map_ = std::move(*grid);
+  }
+  // Seal free space: an unknown cell next to a free one is a wall (SLAM maps leave gaps where
+  // the robot saw no wall), so nothing walks or drives off the known map and lasers stop there.
+  {
+    std::vector<std::pair<int, int>> seal;
+    for (int cy = 0; cy < map_.height(); ++cy) {
+      for (int cx = 0; cx < map_.width(); ++cx) {
+        if (map_.at(cx, cy) != Cell::kUnknown) continue;
+        bool touches_free = false;
+        for (int dy = -1; dy <= 1 && !touches_free; ++dy)
+          for (int dx = -1; dx <= 1 && !touches_free; ++dx)
+            touches_free = map_.in_bounds(cx + dx, cy + dy) && map_.at(cx + dx, cy + dy) == Cell::kFree;
+        if (touches_free) seal.emplace_back(cx, cy);
+      }
+    }
+    for (const auto& [cx, cy] : seal) map_.set(cx, cy, Cell::kOccupied);
   }
   walls_ = extract_wall_boxes(map_);
   double max_person_radius = 0.25;
@@ -279,7 +295,7 @@ std::optional<Vec2> World::approach_point(int i, Vec2 target) const {
   const PersonEntity& p = people_[i];
   const double need = std::max(kPersonClearance, p.spec.radius + 0.05);
   const double base = std::atan2(p.pose.y - target.y, p.pose.x - target.x);
-  for (double r : {0.55, 0.7, 0.78}) {
+  for (double r : {0.6, 0.75, 0.88}) {
     for (int k = 0; k < 24; ++k) {
       const int step = (k + 1) / 2 * (k % 2 ? 1 : -1);
       const double a = base + step * (2 * M_PI / 24);
@@ -320,8 +336,9 @@ Status World::start_action(int i) {
         return bad_input(scenario_.file.string(), a.line, to_string(a.kind),
                          "object '" + a.object + "' is not lying anywhere at this point (carried or gone)");
       }
-      Vec2 target = a.kind == ActionKind::kPutDown ? (a.target.place.empty() && a.target.point == Vec2{} ? p.pose.position() : a.target.point)
-                                                   : o.pose.position();
+      const Vec2 target = a.kind != ActionKind::kPutDown ? o.pose.position()
+                          : a.has_target               ? a.target.point
+                                                       : p.pose.position();
       const double hand = a.duration > 0 ? a.duration : kDefaultHandSeconds;
       if ((target - p.pose.position()).norm() > kReach) {
         auto spot = approach_point(i, target);
@@ -385,7 +402,7 @@ void World::finish_action(int i) {
       const int oi = find_object(a.object);
       ObjectEntity& o = objects_[oi];
       Vec2 where;
-      if (!a.target.place.empty() || !(a.target.point == Vec2{})) {
+      if (a.has_target) {
         where = a.target.point;
       } else {
         // Set down where it hangs (bags, at the side) or just in front (things held in front),
