@@ -1,4 +1,4 @@
-#include "world/status.h"
+#include "common/status.h"
 
 namespace vigil {
 
