@@ -253,6 +253,27 @@ TEST(World, UnreachablePlaceIsAnErrorNamingTheScenarioLine) {
   EXPECT_NE(s.error().str().find("cannot reach"), std::string::npos);
 }
 
+TEST(World, TwoPeopleReachingForOneBagIsAnErrorForTheSecond) {
+  Scenario sc = base_scenario(20);
+  PersonSpec a = person("A", 5, 6);
+  Action pa = act(ActionKind::kPickUp, "bag1", 1.0);
+  pa.line = 11;
+  a.script = {pa};
+  PersonSpec b = person("B", 7, 6);
+  Action pb = act(ActionKind::kPickUp, "bag1", 3.0);  // slower hands: A gets it first
+  pb.line = 14;
+  b.script = {pb};
+  sc.people = {a, b};
+  sc.objects = {object("bag1", ObjectKind::kBag, 6, 6)};
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  Status s;
+  while (!w->finished() && s.ok()) s = w->advance();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().str().find("world_test.yaml:14"), std::string::npos) << s.error().str();
+  EXPECT_EQ(w->objects()[0].carrier, 0);
+}
+
 TEST(World, RobotOdometryDriftsByItsBias) {
   Scenario sc = base_scenario(25);
   RobotSpec r;

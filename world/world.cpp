@@ -359,7 +359,7 @@ Status World::start_action(int i) {
   return Status::Ok();
 }
 
-void World::finish_action(int i) {
+Status World::finish_action(int i) {
   PersonEntity& p = people_[i];
   const Action& a = p.spec.script[p.step_index];
   const auto record = [&](const std::string& what, const std::string& obj, Vec2 where) {
@@ -370,6 +370,10 @@ void World::finish_action(int i) {
     case ActionKind::kPickUp: {
       const int oi = find_object(a.object);
       ObjectEntity& o = objects_[oi];
+      if (o.carrier >= 0 || !o.present) {
+        return bad_input(scenario_.file.string(), a.line, "pick_up",
+                         "person '" + p.spec.id + "' reached for '" + o.spec.id + "' but someone else took it first");
+      }
       const Vec2 where = o.pose.position();
       const std::string prev = !o.last_carrier.empty() ? o.last_carrier : o.spec.owner;
       remove_object_body(oi);
@@ -446,6 +450,7 @@ void World::finish_action(int i) {
   }
   p.step_index++;
   p.phase = p.gone ? PersonEntity::Phase::kDone : PersonEntity::Phase::kStart;
+  return Status::Ok();
 }
 
 Status World::step_person(int i) {
@@ -490,8 +495,8 @@ Status World::step_person(int i) {
         p.phase = PersonEntity::Phase::kActing;
         p.phase_end = time_ + from_seconds(p.hand_seconds);
         p.approaching = false;
-      } else {
-        finish_action(i);
+      } else if (Status st = finish_action(i); !st) {
+        return st;
       }
     } else {
       const double slow = std::min(1.0, to.norm() / 0.3 + 0.2);  // ease into the last point
@@ -528,7 +533,7 @@ Status World::step_person(int i) {
       }
     }
   } else if (p.phase == PersonEntity::Phase::kActing && time_ >= p.phase_end) {
-    finish_action(i);
+    if (Status st = finish_action(i); !st) return st;
   }
   if (p.body) p.body->SetLinearVelocity(b2Vec2(static_cast<float>(desired.x), static_cast<float>(desired.y)));
   return Status::Ok();
