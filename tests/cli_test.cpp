@@ -132,6 +132,19 @@ TEST(Cli, ShippedScenariosProduceTheirScriptedEvents) {
   }
 }
 
+TEST(Cli, BenchSimReportsRealTimeFactorsBesideStage) {
+  const fs::path out = temp_dir("bench") / "bench.json";
+  const Output o = vigil_cmd("bench sim --robots 1,5 --seconds 2 --map " +
+                             (test::source_dir() / "maps" / "dis_labs.yaml").string() + " --json " + out.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("Stage (2008)"), std::string::npos) << o.out;
+  const auto j = nlohmann::json::parse(slurp(out));
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_EQ(j[1]["robots"], 5);
+  EXPECT_DOUBLE_EQ(j[1]["sim_seconds"].get<double>(), 2.0);
+  EXPECT_GT(j[1]["real_time_factor"].get<double>(), 0.0);
+}
+
 TEST(Cli, MalformedScenariosExitTwoNamingFileAndLineOrKey) {
   const fs::path dir = temp_dir("bad");
   const std::string map = (test::source_dir() / "maps" / "dis_labs.floorplan.yaml").string();
