@@ -330,6 +330,48 @@ TEST(World, UnknownSpaceBorderingFreeSpaceIsAWall) {
   EXPECT_LT(*std::min_element(scan.ranges.begin(), scan.ranges.end()), 4.0f);
 }
 
+TEST(Runner, ObserversSeeEveryStepBetweenStartAndFinish) {
+  struct Counter : RunObserver {
+    int starts = 0, steps = 0, finishes = 0;
+    SimTime last = -1;
+    bool ordered = true;
+    Status start(const World& w, const fs::path&) override {
+      starts++;
+      ordered = ordered && w.time() == 0;
+      return Status::Ok();
+    }
+    Status after_step(const World& w) override {
+      steps++;
+      ordered = ordered && w.time() > last && starts == 1 && finishes == 0;
+      last = w.time();
+      return Status::Ok();
+    }
+    Status finish(const World& w) override {
+      finishes++;
+      ordered = ordered && w.finished();
+      return Status::Ok();
+    }
+  } counter;
+  struct Failing : RunObserver {
+    Status after_step(const World& w) override {
+      return w.time() >= from_seconds(1) ? Status(internal_error("camera broke")) : Status::Ok();
+    }
+  } failing;
+  Scenario sc = base_scenario(2);
+  RunOptions ro;
+  ro.observers = {&counter};
+  auto sum = run_scenario(sc, ro);
+  ASSERT_TRUE(sum.ok()) << sum.error().str();
+  EXPECT_EQ(counter.starts, 1);
+  EXPECT_EQ(counter.finishes, 1);
+  EXPECT_EQ(counter.steps, static_cast<int>(sum->steps));
+  EXPECT_TRUE(counter.ordered);
+  ro.observers = {&failing};
+  auto bad = run_scenario(sc, ro);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().message, "camera broke");
+}
+
 TEST(World, SameSeedSameHashOtherSeedWithNoiseDiffers) {
   Scenario sc = base_scenario(15);
   PersonSpec a = person("A", 2, 6);

@@ -60,6 +60,9 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     }
   }
 
+  for (RunObserver* obs : options.observers) {
+    if (Status s = obs->start(world, out); !s) return s.error();
+  }
   const SimTime record_every = std::max<SimTime>(world.step_length(), from_seconds(1.0 / scenario.record_rate_hz));
   SimTime next_record = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -78,10 +81,16 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     }
     if (world.finished()) break;
     if (Status s = world.advance(); !s) return s.error();
+    for (RunObserver* obs : options.observers) {
+      if (Status s = obs->after_step(world); !s) return s.error();
+    }
     if (options.progress && wall() >= next_progress) {
       options.progress(to_seconds(world.time()), total, wall());
       next_progress = wall() + options.progress_interval_s;
     }
+  }
+  for (RunObserver* obs : options.observers) {
+    if (Status s = obs->finish(world); !s) return s.error();
   }
   log.write_timeline(world);
   if (Status s = log.close(); !s) return s.error();

@@ -7,12 +7,23 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "world/scenario.h"
 #include "world/status.h"
 #include "world/world.h"
 
 namespace vigil {
+
+// Something that watches a run (a camera writing its video, a vision pipeline): called once at
+// the start, after every step, and once at the end, with the world as it is then.
+class RunObserver {
+ public:
+  virtual ~RunObserver() = default;
+  virtual Status start(const World& world, const std::filesystem::path& out_dir) { return Status::Ok(); }
+  virtual Status after_step(const World& world) = 0;
+  virtual Status finish(const World& world) { return Status::Ok(); }
+};
 
 struct RunOptions {
   std::filesystem::path out_dir;       // empty: write nothing (hash only)
@@ -23,6 +34,7 @@ struct RunOptions {
   // Called about every `progress_interval_s` of wall time with (sim s, total sim s, wall s).
   std::function<void(double, double, double)> progress;
   double progress_interval_s = 0.5;
+  std::vector<RunObserver*> observers;  // not owned
 };
 
 struct RunSummary {
