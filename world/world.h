@@ -130,6 +130,8 @@ class World : public WorldView {
   // Events so far, in the order they arose (sorted by t at the end of the run).
   const std::vector<GroundTruthEvent>& events() const { return events_; }
   const std::vector<WallBox>& walls() const { return walls_; }
+  // The floorplan's furniture (tables), empty for maps that are not floorplans.
+  const std::vector<FloorplanFurniture>& furniture() const { return furniture_; }
   size_t plugin_count() const;
 
  private:
@@ -143,7 +145,7 @@ class World : public WorldView {
   Status start_action(int i);
   Status plan_walk(int i, Vec2 goal, int line, const std::string& what);
   std::optional<Vec2> approach_point(int i, Vec2 target) const;
-  void finish_action(int i);
+  Status finish_action(int i);
   void place_object_on_floor(int o, Vec2 where);
   void remove_object_body(int o);
   int find_object(const std::string& id) const;
