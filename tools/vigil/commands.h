@@ -20,5 +20,6 @@ void add_run_command(CLI::App& app);       // vigil run SCENARIO
 void add_validate_command(CLI::App& app);  // vigil validate FILE...
 void add_map_command(CLI::App& app);       // vigil map info|export
 void add_bench_command(CLI::App& app);     // vigil bench sim
+void add_render_command(CLI::App& app);    // vigil render SCENARIO --camera ID --out DIR
 
 }  // namespace vigil::cli
