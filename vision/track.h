@@ -1,0 +1,32 @@
+// Tracks: what every tracker in Vigil emits (the plan-view tracker, the MSER tracker, the fast
+// ground-truth sensor model), in the building's map frame, one record per track per camera tick.
+// The event rules, the evaluation (vigil eval) and the DDS messages all consume this one type.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace vigil::vision {
+
+enum class TrackClass { kUnknown, kPerson, kBag, kRobot };
+
+// "unknown", "person", "bag", "robot".
+std::string_view to_string(TrackClass c);
+// The inverse of to_string; nullopt for anything else.
+std::optional<TrackClass> parse_track_class(std::string_view s);
+
+struct Track {
+  int64_t stamp_ns = 0;       // time of the frame the track was updated on (simulated or capture time)
+  std::string camera;         // id of the camera (or source) that produced it
+  int id = 0;                 // track id, unique per camera over the run, never reused
+  TrackClass cls = TrackClass::kUnknown;
+  double x = 0, y = 0;        // m, map frame: centre of the footprint on the floor
+  double vx = 0, vy = 0;      // m/s, map frame
+  double height = 0;          // m, top of the object above the floor
+  double width = 0;           // m, footprint extent (largest side)
+  double confidence = 0;      // 0..1
+};
+
+}  // namespace vigil::vision
