@@ -74,13 +74,15 @@ TEST(Cli, EveryShippedScenarioValidates) {
 TEST(Cli, RunWritesOutputsAndIsDeterministic) {
   const fs::path a = temp_dir("run_a"), b = temp_dir("run_b"), c = temp_dir("run_c");
   const std::string sc = scenario("dis_left_bag").string();
-  const Output first = vigil_cmd("run " + sc + " --out " + a.string() + " --duration 20 --quiet");
+  const Output first = vigil_cmd("run " + sc + " --out " + a.string() + " --duration 8 --quiet");
   ASSERT_EQ(first.code, 0) << first.out;
-  const Output second = vigil_cmd("run " + sc + " --out " + b.string() + " --duration 20 --no-video --quiet");
+  const Output second = vigil_cmd("run " + sc + " --out " + b.string() + " --duration 8 --no-video --quiet");
   ASSERT_EQ(second.code, 0) << second.out;
-  for (const char* f : {"ground_truth.jsonl", "summary.json", "topdown.avi", "topdown.png"})
+  for (const char* f : {"ground_truth.jsonl", "summary.json", "topdown.avi", "topdown.png", "cameras/cam_corridor.avi",
+                        "cameras/cam_lab.avi"})
     EXPECT_TRUE(fs::exists(a / f)) << f;
   EXPECT_FALSE(fs::exists(b / "topdown.avi"));
+  EXPECT_FALSE(fs::exists(b / "cameras"));
   const std::string gt_a = slurp(a / "ground_truth.jsonl"), gt_b = slurp(b / "ground_truth.jsonl");
   ASSERT_FALSE(gt_a.empty());
   EXPECT_EQ(gt_a, gt_b);
@@ -90,9 +92,9 @@ TEST(Cli, RunWritesOutputsAndIsDeterministic) {
     EXPECT_TRUE(sum_a.contains(key)) << key;
   EXPECT_EQ(sum_a["ground_truth_sha256"], sha256_hex(gt_a));
   EXPECT_EQ(sum_a["ground_truth_sha256"], sum_b["ground_truth_sha256"]);
-  EXPECT_DOUBLE_EQ(sum_a["sim_seconds"].get<double>(), 20.0);
+  EXPECT_DOUBLE_EQ(sum_a["sim_seconds"].get<double>(), 8.0);
   // The shipped scenarios have laser noise and odometry error: another seed, other bytes.
-  const Output third = vigil_cmd("run " + sc + " --out " + c.string() + " --duration 20 --seed 99 --no-video --quiet");
+  const Output third = vigil_cmd("run " + sc + " --out " + c.string() + " --duration 8 --seed 99 --no-video --quiet");
   ASSERT_EQ(third.code, 0) << third.out;
   const auto sum_c = nlohmann::json::parse(slurp(c / "summary.json"));
   EXPECT_EQ(sum_c["seed"], 99);
@@ -143,6 +145,43 @@ TEST(Cli, BenchSimReportsRealTimeFactorsBesideStage) {
   EXPECT_EQ(j[1]["robots"], 5);
   EXPECT_DOUBLE_EQ(j[1]["sim_seconds"].get<double>(), 2.0);
   EXPECT_GT(j[1]["real_time_factor"].get<double>(), 0.0);
+}
+
+TEST(Cli, BenchRenderReportsPairsPerSecondBesideThePlainScene) {
+  const fs::path out = temp_dir("bench_render") / "render.json";
+  const Output o = vigil_cmd("bench render --pairs 3 --sizes 160x120,80x60 --at 5 --json " + out.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("plain, 50 primitives"), std::string::npos) << o.out;
+  const auto j = nlohmann::json::parse(slurp(out));
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_EQ(j[0]["width"], 160);
+  EXPECT_EQ(j[1]["height"], 60);
+  EXPECT_EQ(j[0]["plain_scene_primitives"], 50);
+  EXPECT_GT(j[0]["primitives"].get<int>(), 100);  // the corridor with ten people
+  EXPECT_GT(j[0]["pairs_per_second"].get<double>(), 0.0);
+  EXPECT_GT(j[0]["plain_scene_pairs_per_second"].get<double>(), 0.0);
+  const Output bad = vigil_cmd("bench render --sizes 640by480");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--sizes"), std::string::npos) << bad.out;
+}
+
+TEST(Cli, BenchStereoTimesOurMatcherBesideOpenCv) {
+  // The rendered golden pair stands in for aloe, so this runs without ../shared/data.
+  const fs::path g = test::source_dir() / "tests" / "golden";
+  const fs::path out = temp_dir("bench_stereo") / "stereo.json";
+  const Output o = vigil_cmd("bench stereo --repeats 2 --left " + (g / "dis_left_bag_cam_corridor_t12_left.png").string() +
+                             " --right " + (g / "dis_left_bag_cam_corridor_t12_right.png").string() + " --json " +
+                             out.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  const auto j = nlohmann::json::parse(slurp(out));
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_EQ(j[0]["matcher"], "SGBM");
+  EXPECT_EQ(j[1]["matcher"], "BM");
+  EXPECT_EQ(j[0]["width"], 640);
+  EXPECT_GT(j[1]["opencv_direct_median_ms"].get<double>(), 0.0);
+  const Output bad = vigil_cmd("bench stereo --left /no/such.png --right /no/such.png");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("/no/such.png"), std::string::npos) << bad.out;
 }
 
 TEST(Cli, MalformedScenariosExitTwoNamingFileAndLineOrKey) {

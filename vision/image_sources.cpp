@@ -484,59 +484,43 @@ Result<double> parse_double(const std::string& spec, const std::string& key, con
 
 }  // namespace
 
-Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& spec) {
+Result<SourceSpec> parse_source_spec(const std::string& spec) {
   const size_t colon = spec.find(':');
   if (colon == std::string::npos)
-    return spec_error(spec, "scheme", "expected video:, images: or stereo: before the path");
-  const std::string scheme = spec.substr(0, colon);
+    return spec_error(spec, "scheme", "expected video:, images:, stereo: or render: before the path");
+  SourceSpec out;
+  out.scheme = spec.substr(0, colon);
   std::vector<std::string> parts = split(spec.substr(colon + 1), ';');
-  const std::string body = parts.front();
-  if (body.empty()) return spec_error(spec, scheme, "no path after '" + scheme + ":'");
-  std::map<std::string, std::string> opts;
+  out.body = parts.front();
+  if (out.body.empty()) return spec_error(spec, out.scheme, "no path after '" + out.scheme + ":'");
   for (size_t i = 1; i < parts.size(); ++i) {
     const size_t eq = parts[i].find('=');
     if (eq == std::string::npos || eq == 0)
       return spec_error(spec, parts[i], "options are written key=value");
-    opts[parts[i].substr(0, eq)] = parts[i].substr(eq + 1);
+    out.options[parts[i].substr(0, eq)] = parts[i].substr(eq + 1);
   }
+  return out;
+}
+
+Result<double> take_fps_option(const std::string& spec, std::map<std::string, std::string>* options) {
   double fps = 0;
-  if (auto it = opts.find("fps"); it != opts.end()) {
+  if (auto it = options->find("fps"); it != options->end()) {
     auto v = parse_double(spec, "fps", it->second);
     if (!v) return v.error();
     if (!(*v > 0)) return spec_error(spec, "fps", "must be positive");
     fps = *v;
-    opts.erase(it);
+    options->erase(it);
   }
+  return fps;
+}
 
-  if (scheme == "video" || scheme == "images") {
-    if (!opts.empty())
-      return spec_error(spec, opts.begin()->first, "unknown option for " + scheme + ": sources");
-    if (scheme == "video") {
-      VideoFileOptions o;
-      o.fps = fps;
-      auto s = VideoFileSource::open(body, o);
-      if (!s) return s.error();
-      return std::unique_ptr<FrameSource>(std::move(*s));
-    }
-    ImageSequenceOptions o;
-    if (fps > 0) o.fps = fps;
-    auto s = ImageSequenceSource::open(body, o);
-    if (!s) return s.error();
-    return std::unique_ptr<FrameSource>(std::move(*s));
-  }
-  if (scheme != "stereo")
-    return spec_error(spec, "scheme",
-                      "unknown source '" + scheme + "' (expected video, images or stereo)");
-
-  const std::vector<std::string> paths = split(body, ',');
-  if (paths.size() < 2 || paths.size() > 3)
-    return spec_error(spec, "stereo", "expected LEFT,RIGHT or LEFT,RIGHT,CALIBRATION");
-  StereoSequenceOptions so;
-  so.fps = fps;
+Result<std::optional<StereoMatcherParams>> take_matcher_options(const std::string& spec,
+                                                                std::map<std::string, std::string>* options,
+                                                                const std::vector<std::string>& other_keys) {
   std::string algorithm = "none";
-  if (auto it = opts.find("disparity"); it != opts.end()) {
+  if (auto it = options->find("disparity"); it != options->end()) {
     algorithm = it->second;
-    opts.erase(it);
+    options->erase(it);
   }
   StereoMatcherParams mp;
   if (algorithm != "none") {
@@ -555,28 +539,75 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& spec) 
       {"p1", &mp.p1},
       {"p2", &mp.p2},
   };
-  for (const auto& [key, value] : opts) {
-    if (!int_fields.count(key) && key != "mode" && key != "alpha")
-      return spec_error(spec, key, "unknown option for stereo: sources");
-    if (algorithm == "none" && key != "alpha")
-      return spec_error(spec, key, "a matcher option needs disparity=sgbm or disparity=bm");
+  for (auto it = options->begin(); it != options->end();) {
+    const auto& [key, value] = *it;
+    const bool other = std::find(other_keys.begin(), other_keys.end(), key) != other_keys.end();
+    if (other) {
+      ++it;
+      continue;
+    }
+    if (!int_fields.count(key) && key != "mode") return spec_error(spec, key, "unknown option for this source");
+    if (algorithm == "none") return spec_error(spec, key, "a matcher option needs disparity=sgbm or disparity=bm");
     if (auto f = int_fields.find(key); f != int_fields.end()) {
       auto v = parse_int(spec, key, value);
       if (!v) return v.error();
       *f->second = *v;
-    } else if (key == "mode") {
+    } else {
       auto m = parse_sgbm_mode(value);
       if (!m) return spec_error(spec, key, m.error().message);
       mp.mode = *m;
-    } else if (key == "alpha") {
-      auto v = parse_double(spec, key, value);
-      if (!v) return v.error();
-      so.rectify_alpha = *v;
     }
+    it = options->erase(it);
   }
-  if (algorithm != "none") {
-    if (Status st = mp.validate(); !st) return spec_error(spec, st.error().key, st.error().message);
-    so.matcher = mp;
+  if (algorithm == "none") return std::optional<StereoMatcherParams>();
+  if (Status st = mp.validate(); !st) return spec_error(spec, st.error().key, st.error().message);
+  return std::optional<StereoMatcherParams>(mp);
+}
+
+Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& spec) {
+  auto parsed = parse_source_spec(spec);
+  if (!parsed) return parsed.error();
+  const std::string& scheme = parsed->scheme;
+  const std::string& body = parsed->body;
+  auto& opts = parsed->options;
+  auto fps = take_fps_option(spec, &opts);
+  if (!fps) return fps.error();
+
+  if (scheme == "video" || scheme == "images") {
+    if (!opts.empty())
+      return spec_error(spec, opts.begin()->first, "unknown option for " + scheme + ": sources");
+    if (scheme == "video") {
+      VideoFileOptions o;
+      o.fps = *fps;
+      auto s = VideoFileSource::open(body, o);
+      if (!s) return s.error();
+      return std::unique_ptr<FrameSource>(std::move(*s));
+    }
+    ImageSequenceOptions o;
+    if (*fps > 0) o.fps = *fps;
+    auto s = ImageSequenceSource::open(body, o);
+    if (!s) return s.error();
+    return std::unique_ptr<FrameSource>(std::move(*s));
+  }
+  if (scheme == "render")
+    return spec_error(spec, "scheme",
+                      "render: sources are opened by the simulator's tools (vigil track), not the vision library");
+  if (scheme != "stereo")
+    return spec_error(spec, "scheme", "unknown source '" + scheme + "' (expected video, images, stereo or render)");
+
+  const std::vector<std::string> paths = split(body, ',');
+  if (paths.size() < 2 || paths.size() > 3)
+    return spec_error(spec, "stereo", "expected LEFT,RIGHT or LEFT,RIGHT,CALIBRATION");
+  StereoSequenceOptions so;
+  so.fps = *fps;
+  auto matcher = take_matcher_options(spec, &opts, {"alpha"});
+  if (!matcher) return matcher.error();
+  so.matcher = *matcher;
+  for (const auto& [key, value] : opts) {
+    if (key != "alpha") return spec_error(spec, key, "unknown option for stereo: sources");
+    auto v = parse_double(spec, key, value);
+    if (!v) return v.error();
+    so.rectify_alpha = *v;
   }
   auto s = StereoSequenceSource::open(paths[0], paths[1], paths.size() == 3 ? paths[2] : "", so);
   if (!s) return s.error();

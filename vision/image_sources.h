@@ -29,6 +29,7 @@
 // Example: stereo:/data/left%02d.jpg,/data/right%02d.jpg,/data/rig.yaml;disparity=sgbm;num_disparities=128
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -162,6 +163,21 @@ class StereoSequenceSource : public FrameSource {
   cv::Mat map_left_[2], map_right_[2];  // initUndistortRectifyMap output (CV_16SC2 + CV_16UC1)
   int64_t index_ = 0;
 };
+
+// A spec split into its scheme ("video"), body (the path part) and ";key=value" options.
+struct SourceSpec {
+  std::string scheme, body;
+  std::map<std::string, std::string> options;
+};
+Result<SourceSpec> parse_source_spec(const std::string& spec);
+// Takes "fps" out of the options: its value, or 0 when absent.
+Result<double> take_fps_option(const std::string& spec, std::map<std::string, std::string>* options);
+// Takes "disparity" and the matcher keys out of the options (leaving `other_keys` alone; any
+// other key is an error): the matcher's parameters, or nullopt for disparity=none or no
+// "disparity" key.
+Result<std::optional<StereoMatcherParams>> take_matcher_options(const std::string& spec,
+                                                                std::map<std::string, std::string>* options,
+                                                                const std::vector<std::string>& other_keys = {});
 
 // Opens the source a spec names (see the top of this file); errors name the spec and the part
 // at fault.

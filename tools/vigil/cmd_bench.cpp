@@ -123,6 +123,7 @@ void add_bench_command(CLI::App& app) {
       f << results.dump(2) << "\n";
     }
   });
+  add_bench_camera_commands(bench);
 }
 
 }  // namespace vigil::cli

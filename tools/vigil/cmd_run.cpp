@@ -1,9 +1,11 @@
 // vigil run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--no-video]
+// Writes the ground truth, summary, top-down video and (rendered with OSMesa) each camera's video.
 #include <unistd.h>
 
 #include <cstdio>
 #include <memory>
 
+#include "plugins/stereo_camera/stereo_camera.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/plugin.h"
@@ -25,7 +27,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--out", opts->out, "output folder (default runs/<scenario name>)");
   cmd->add_option("--seed", opts->seed, "seed overriding the scenario's");
   cmd->add_option("--duration", opts->duration, "simulated seconds overriding the scenario's");
-  cmd->add_flag("--no-video", opts->no_video, "do not write topdown.avi / topdown.png");
+  cmd->add_flag("--no-video", opts->no_video, "do not write topdown.avi, topdown.png or the camera videos");
   cmd->add_flag("--quiet,-q", opts->quiet, "no progress output");
   cmd->add_option("--plugin-path", opts->plugin_paths, "extra folder to search for plugin libraries");
   cmd->callback([opts] {
@@ -43,6 +45,11 @@ void add_run_command(CLI::App& app) {
     ro.duration = opts->duration;
     ro.video = !opts->no_video;
     ro.world.plugin_dirs = dirs;
+    // Every camera renders at its rate and writes cameras/<id>.avi (unless --no-video).
+    render::CameraRigOptions rig_options;
+    rig_options.video = ro.video;
+    render::CameraRig rig(rig_options);
+    if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
     const bool tty = isatty(STDERR_FILENO);
     int last_decile = -1;
     if (!opts->quiet) {

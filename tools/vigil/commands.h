@@ -19,7 +19,8 @@ int report(const Error& e);
 void add_run_command(CLI::App& app);       // vigil run SCENARIO
 void add_validate_command(CLI::App& app);  // vigil validate FILE...
 void add_map_command(CLI::App& app);       // vigil map info|export
-void add_bench_command(CLI::App& app);     // vigil bench sim
+void add_bench_command(CLI::App& app);     // vigil bench sim|render|stereo
+void add_bench_camera_commands(CLI::App* bench);  // vigil bench render, vigil bench stereo
 void add_render_command(CLI::App& app);    // vigil render SCENARIO --camera ID --out DIR
 
 }  // namespace vigil::cli

@@ -1,0 +1,202 @@
+#include "plugins/stereo_camera/stereo_camera.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "vision/image_sources.h"
+
+namespace vigil::render {
+
+namespace {
+
+Error camera_not_found(const Scenario& scenario, const std::string& camera_id) {
+  std::string known;
+  for (const auto& c : scenario.cameras) known += (known.empty() ? "" : ", ") + c.id;
+  return bad_input(scenario.file.string(), 0, "camera",
+                   "no camera '" + camera_id + "' in the scenario (cameras: " + (known.empty() ? "none" : known) + ")");
+}
+
+}  // namespace
+
+// ---- RenderedStereoSource ----
+
+Result<std::unique_ptr<RenderedStereoSource>> RenderedStereoSource::open(const Scenario& scenario,
+                                                                         const std::string& camera_id,
+                                                                         const RenderedSourceOptions& options) {
+  const CameraSpec* spec = nullptr;
+  for (const auto& c : scenario.cameras)
+    if (c.id == camera_id) spec = &c;
+  if (!spec) return camera_not_found(scenario, camera_id);
+  std::unique_ptr<RenderedStereoSource> src(new RenderedStereoSource());
+  src->camera_ = *spec;
+  src->scenario_name_ = scenario.name;
+  src->max_frames_ = options.max_frames;
+  auto world = World::create(scenario, options.world);
+  if (!world) return world.error();
+  src->world_ = std::move(*world);
+  RendererOptions ro = options.renderer;
+  ro.effects.seed = ro.effects.seed == 1 ? scenario.seed : ro.effects.seed;
+  auto renderer = OsmesaRenderer::create(spec->width, spec->height, ro);
+  if (!renderer) return renderer.error();
+  src->renderer_ = std::move(*renderer);
+  src->model_ = render::camera_model(*spec);
+  src->scene_options_ = scene_options_for(*src->world_, spec);
+  if (options.matcher) {
+    auto m = vision::StereoMatcher::create(*options.matcher);
+    if (!m) return m.error();
+    src->matcher_ = std::move(*m);
+  }
+  return src;
+}
+
+Result<bool> RenderedStereoSource::next(vision::StereoFrame* frame) {
+  if (max_frames_ > 0 && index_ >= max_frames_) return false;
+  const SimTime tick = from_seconds(static_cast<double>(index_) / camera_.rate_hz);
+  if (tick > world_->end_time()) return false;
+  while (world_->time() < tick) {
+    if (Status s = world_->advance(); !s) return s.error();
+  }
+  const RenderScene scene = build_render_scene(*world_, scene_options_);
+  label_ids_ = scene.label_ids;
+  frame->index = index_;
+  frame->stamp_ns = world_->time();
+  if (Status s = renderer_->render(scene, model_, frame); !s) return s.error();
+  if (matcher_) {
+    if (Status s = match_disparity(*matcher_, model_, frame); !s) return s.error();
+  }
+  ++index_;
+  return true;
+}
+
+std::string RenderedStereoSource::describe() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "rendered %s of %s (%dx%d, %g Hz, %s disparity)", camera_.id.c_str(),
+                scenario_name_.c_str(), camera_.width, camera_.height, camera_.rate_hz,
+                matcher_ ? (matcher_->params().algorithm == vision::StereoAlgorithm::kBM ? "BM" : "SGBM")
+                         : "ground-truth");
+  return buf;
+}
+
+Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
+                       vision::StereoFrame* frame) {
+  auto d = matcher.compute(frame->left, frame->right);
+  if (!d) return d.error();
+  frame->disparity = *d;
+  frame->depth.create(d->size(), CV_32F);
+  const double fb = model.intrinsics().fx * model.baseline();
+  for (int r = 0; r < d->rows; ++r) {
+    const float* dp = d->ptr<float>(r);
+    float* zp = frame->depth.ptr<float>(r);
+    for (int c = 0; c < d->cols; ++c) zp[c] = dp[c] > 0 ? static_cast<float>(fb / dp[c]) : 0.0f;
+  }
+  return Status::Ok();
+}
+
+// ---- CameraRig ----
+
+void CameraRig::add_consumer(const std::string& camera_id, FrameConsumer consumer) {
+  consumers_.emplace_back(camera_id, std::move(consumer));
+}
+
+Status CameraRig::start(const World& world, const std::filesystem::path& out_dir) {
+  cameras_.clear();
+  frames_.clear();
+  if (!active()) return Status::Ok();
+  const Scenario& scenario = world.scenario();
+  for (const auto& spec : scenario.cameras) {
+    bool wanted = options_.video;
+    for (const auto& [id, consumer] : consumers_) wanted = wanted || id.empty() || id == spec.id;
+    if (!wanted) continue;
+    auto cam = std::make_unique<Camera>();
+    cam->spec = spec;
+    cam->model = camera_model(spec);
+    cam->scene_options = scene_options_for(world, &spec);
+    RendererOptions ro = options_.renderer;
+    if (ro.effects.seed == 1) ro.effects.seed = scenario.seed;
+    auto renderer = OsmesaRenderer::create(spec.width, spec.height, ro);
+    if (!renderer) return renderer.error();
+    cam->renderer = std::move(*renderer);
+    if (options_.video && !out_dir.empty()) {
+      std::error_code ec;
+      std::filesystem::create_directories(out_dir / "cameras", ec);
+      cam->video_path = out_dir / "cameras" / (spec.id + ".avi");
+      if (ec || !cam->video.open(cam->video_path.string(), cv::CAP_OPENCV_MJPEG,
+                                 cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), spec.rate_hz,
+                                 cv::Size(spec.width, spec.height))) {
+        return bad_input(cam->video_path.string(), 0, "", "cannot open the camera video for writing");
+      }
+    }
+    frames_[spec.id] = 0;
+    cameras_.push_back(std::move(cam));
+  }
+  return render_due(world);
+}
+
+Status CameraRig::after_step(const World& world) { return render_due(world); }
+
+Status CameraRig::render_due(const World& world) {
+  for (auto& cam : cameras_) {
+    if (world.time() < cam->next_tick) continue;
+    const RenderScene scene = build_render_scene(world, cam->scene_options);
+    vision::StereoFrame frame;
+    frame.index = cam->index;
+    frame.stamp_ns = world.time();
+    if (Status s = cam->renderer->render(scene, cam->model, &frame); !s) return s;
+    if (cam->video.isOpened()) cam->video.write(frame.left);
+    for (const auto& [id, consumer] : consumers_) {
+      if (!id.empty() && id != cam->spec.id) continue;
+      if (Status s = consumer(cam->spec, frame, world); !s) return s;
+    }
+    ++cam->index;
+    ++frames_[cam->spec.id];
+    // The next tick on the camera's own clock (not drifting with the physics step).
+    cam->next_tick = from_seconds(static_cast<double>(cam->index) / cam->spec.rate_hz);
+  }
+  return Status::Ok();
+}
+
+Status CameraRig::finish(const World& world) {
+  for (auto& cam : cameras_) {
+    if (cam->video.isOpened()) cam->video.release();
+  }
+  return Status::Ok();
+}
+
+// ---- open_any_frame_source ----
+
+Result<std::unique_ptr<vision::FrameSource>> open_any_frame_source(const std::string& spec, const WorldOptions& world) {
+  auto parsed = vision::parse_source_spec(spec);
+  if (!parsed) return parsed.error();
+  if (parsed->scheme != "render") return vision::open_frame_source(spec);
+  auto& opts = parsed->options;
+  RenderedSourceOptions ro;
+  ro.world = world;
+  std::string camera;
+  if (auto it = opts.find("camera"); it != opts.end()) {
+    camera = it->second;
+    opts.erase(it);
+  }
+  if (auto it = opts.find("frames"); it != opts.end()) {
+    char* end = nullptr;
+    const long long n = std::strtoll(it->second.c_str(), &end, 10);
+    if (it->second.empty() || *end != '\0' || n <= 0)
+      return bad_input(spec, 0, "frames", "expected a positive integer, got '" + it->second + "'");
+    ro.max_frames = n;
+    opts.erase(it);
+  }
+  if (auto it = opts.find("disparity"); it != opts.end() && it->second == "truth") opts.erase(it);
+  auto matcher = vision::take_matcher_options(spec, &opts);
+  if (!matcher) return matcher.error();
+  ro.matcher = *matcher;
+  auto scenario = load_scenario(parsed->body);
+  if (!scenario) return scenario.error();
+  if (camera.empty()) {
+    if (scenario->cameras.empty()) return bad_input(spec, 0, "camera", "the scenario has no cameras");
+    camera = scenario->cameras.front().id;
+  }
+  auto src = RenderedStereoSource::open(*scenario, camera, ro);
+  if (!src) return src.error();
+  return std::unique_ptr<vision::FrameSource>(std::move(*src));
+}
+
+}  // namespace vigil::render

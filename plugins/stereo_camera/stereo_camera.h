@@ -1,0 +1,124 @@
+// The simulator's stereo cameras as frame sources and as run observers.
+//
+// RenderedStereoSource is the FrameSource of a scenario camera: it owns a World, steps it to
+// each tick of the camera's rate and renders the pair with OSMesa, so the vision code reads
+// rendered frames exactly as it reads recorded ones. Disparity is the renderer's ground truth,
+// or (disparity=sgbm|bm) matched from the rendered pair like a real rig's.
+//
+// CameraRig is the RunObserver that gives every camera of a scenario its frames during
+// `vigil run`: it renders each camera at its own rate as the world steps, writes the left view
+// to DIR/cameras/<id>.avi, and hands each frame to the consumers attached to that camera (the
+// vision pipelines).
+//
+// open_any_frame_source() opens every spec the vision library knows (video:, images:, stereo:)
+// plus render:SCENARIO.yaml;camera=ID[;frames=N][;disparity=truth|sgbm|bm][;matcher keys].
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/videoio.hpp>
+
+#include "common/status.h"
+#include "plugins/stereo_camera/osmesa_renderer.h"
+#include "plugins/stereo_camera/render_scene.h"
+#include "vision/frame_source.h"
+#include "vision/stereo_matcher.h"
+#include "world/runner.h"
+#include "world/scenario.h"
+#include "world/world.h"
+
+namespace vigil::render {
+
+struct RenderedSourceOptions {
+  int64_t max_frames = 0;                              // 0 = until the scenario ends
+  std::optional<vision::StereoMatcherParams> matcher;  // set: disparity and depth from this matcher
+  RendererOptions renderer;
+  WorldOptions world;
+};
+
+class RenderedStereoSource : public vision::FrameSource {
+ public:
+  // The source of camera `camera_id` of the scenario; errors name the scenario and the key.
+  static Result<std::unique_ptr<RenderedStereoSource>> open(const Scenario& scenario, const std::string& camera_id,
+                                                            const RenderedSourceOptions& options = {});
+  Result<bool> next(vision::StereoFrame* frame) override;
+  std::optional<vision::StereoCameraModel> camera_model() const override { return model_; }
+  bool is_stereo() const override { return true; }
+  std::string describe() const override;
+
+  const World& world() const { return *world_; }
+  const CameraSpec& camera() const { return camera_; }
+  // label -> entity id of the last frame (labels_[0] = "").
+  const std::vector<std::string>& label_ids() const { return label_ids_; }
+
+ private:
+  RenderedStereoSource() = default;
+  std::unique_ptr<World> world_;
+  std::unique_ptr<OsmesaRenderer> renderer_;
+  std::optional<vision::StereoMatcher> matcher_;
+  CameraSpec camera_;
+  vision::StereoCameraModel model_;
+  SceneOptions scene_options_;
+  std::string scenario_name_;
+  int64_t index_ = 0, max_frames_ = 0;
+  std::vector<std::string> label_ids_;
+};
+
+// Replaces the frame's disparity and depth with `matcher`'s, from its left and right images
+// (invalid disparity gives depth 0).
+Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
+                       vision::StereoFrame* frame);
+
+// Called with each rendered frame of a camera, the world as it is at the frame's time.
+using FrameConsumer = std::function<Status(const CameraSpec&, const vision::StereoFrame&, const World&)>;
+
+struct CameraRigOptions {
+  bool video = true;   // write DIR/cameras/<id>.avi (left view, MJPEG at the camera's rate)
+  RendererOptions renderer;
+};
+
+class CameraRig : public RunObserver {
+ public:
+  explicit CameraRig(CameraRigOptions options = {}) : options_(std::move(options)) {}
+  // Frames of `camera_id` (or of every camera when empty) go to `consumer`, in time order.
+  void add_consumer(const std::string& camera_id, FrameConsumer consumer);
+  // True when the rig has anything to do (video on, or a consumer attached).
+  bool active() const { return options_.video || !consumers_.empty(); }
+
+  Status start(const World& world, const std::filesystem::path& out_dir) override;
+  Status after_step(const World& world) override;
+  Status finish(const World& world) override;
+
+  // Frames rendered so far, per camera id.
+  const std::map<std::string, int64_t>& frames() const { return frames_; }
+
+ private:
+  struct Camera {
+    CameraSpec spec;
+    vision::StereoCameraModel model;
+    SceneOptions scene_options;
+    std::unique_ptr<OsmesaRenderer> renderer;
+    cv::VideoWriter video;
+    std::filesystem::path video_path;
+    SimTime next_tick = 0;
+    int64_t index = 0;
+  };
+  Status render_due(const World& world);
+
+  CameraRigOptions options_;
+  std::vector<std::pair<std::string, FrameConsumer>> consumers_;
+  std::vector<std::unique_ptr<Camera>> cameras_;
+  std::map<std::string, int64_t> frames_;
+};
+
+// Opens any frame source: the vision library's (video:, images:, stereo:) or render:SCENARIO.
+Result<std::unique_ptr<vision::FrameSource>> open_any_frame_source(const std::string& spec,
+                                                                   const WorldOptions& world = {});
+
+}  // namespace vigil::render
