@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "tests/test_util.h"
@@ -145,6 +146,42 @@ TEST(Cli, BenchSimReportsRealTimeFactorsBesideStage) {
   EXPECT_EQ(j[1]["robots"], 5);
   EXPECT_DOUBLE_EQ(j[1]["sim_seconds"].get<double>(), 2.0);
   EXPECT_GT(j[1]["real_time_factor"].get<double>(), 0.0);
+}
+
+TEST(Cli, RunWithAVisionSensorOnACameraWritesTracks) {
+  // dis_left_bag with the fast ground-truth sensor on cam_corridor, written beside the shipped one
+  // so its relative paths still resolve.
+  std::string text = slurp(scenario("dis_left_bag"));
+  const std::string anchor = "    rate_hz: 15\n";
+  const size_t at = text.find(anchor);
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at + anchor.size(), "    plugin: truth\n    params:\n      position_noise: 0.02\n");
+  const fs::path sc = test::source_dir() / "scenarios" / ("tmp_cli_truth_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(sc) << text;
+  const fs::path out = temp_dir("truth_run");
+  const Output o = vigil_cmd("run " + sc.string() + " --out " + out.string() + " --no-video --quiet");
+  std::string broken = text;
+  broken.replace(broken.find("plugin: truth"), 13, "plugin: wander");
+  std::ofstream(sc) << broken;
+  const Output wrong = vigil_cmd("run " + sc.string() + " --out " + temp_dir("truth_wrong").string() + " --no-video --quiet");
+  fs::remove(sc);
+  ASSERT_EQ(o.code, 0) << o.out;
+  ASSERT_TRUE(fs::exists(out / "tracks.jsonl"));
+  std::istringstream lines(slurp(out / "tracks.jsonl"));
+  std::string line;
+  int n = 0;
+  std::set<std::string> classes;
+  while (std::getline(lines, line)) {
+    const auto j = nlohmann::json::parse(line);
+    EXPECT_EQ(j["camera"], "cam_corridor");
+    classes.insert(j["class"].get<std::string>());
+    ++n;
+  }
+  EXPECT_GT(n, 100);
+  EXPECT_TRUE(classes.count("person"));
+  EXPECT_TRUE(classes.count("bag"));
+  EXPECT_EQ(wrong.code, 2) << wrong.out;
+  EXPECT_NE(wrong.out.find("not a vision sensor"), std::string::npos) << wrong.out;
 }
 
 TEST(Cli, BenchRenderReportsPairsPerSecondBesideThePlainScene) {

@@ -13,6 +13,7 @@
 
 #include "plugins/stereo_camera/osmesa_renderer.h"
 #include "plugins/stereo_camera/render_scene.h"
+#include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/plugin.h"
@@ -85,7 +86,7 @@ void add_render_command(CLI::App& app) {
     const auto dirs = plugin_search_path(opts->plugin_paths);
     for (const auto& d : dirs) registry.add_search_dir(d);
     ScenarioContext ctx;
-    ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n); };
+    ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n) || sensors::vision_sensor_exists(n); };
     auto scenario = load_scenario(opts->scenario, ctx);
     if (!scenario) throw Exit{report(scenario.error())};
     const CameraSpec* spec = nullptr;

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "plugins/stereo_camera/stereo_camera.h"
+#include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/plugin.h"
@@ -36,7 +37,7 @@ void add_run_command(CLI::App& app) {
     const auto dirs = plugin_search_path(opts->plugin_paths);
     for (const auto& d : dirs) registry.add_search_dir(d);
     ScenarioContext ctx;
-    ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n); };
+    ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n) || sensors::vision_sensor_exists(n); };
     auto scenario = load_scenario(opts->scenario, ctx);
     if (!scenario) throw Exit{report(scenario.error())};
     RunOptions ro;
@@ -49,7 +50,11 @@ void add_run_command(CLI::App& app) {
     render::CameraRigOptions rig_options;
     rig_options.video = ro.video;
     render::CameraRig rig(rig_options);
+    // The cameras' vision sensors (plugin: under a camera) write tracks.jsonl.
+    auto host = sensors::VisionSensorHost::create(*scenario, &rig);
+    if (!host) throw Exit{report(host.error())};
     if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
+    if (!(*host)->empty()) ro.observers.push_back(host->get());
     const bool tty = isatty(STDERR_FILENO);
     int last_decile = -1;
     if (!opts->quiet) {

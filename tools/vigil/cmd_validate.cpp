@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/plugin.h"
@@ -24,7 +25,7 @@ void add_validate_command(CLI::App& app) {
     register_builtin_plugins(registry);
     for (const auto& dir : plugin_search_path()) registry.add_search_dir(dir);
     ScenarioContext ctx;
-    ctx.plugin_exists = [&registry](const std::string& name) { return registry.exists(name); };
+    ctx.plugin_exists = [&registry](const std::string& name) { return registry.exists(name) || sensors::vision_sensor_exists(name); };
 
     int worst = 0;
     for (const std::string& file : *files) {

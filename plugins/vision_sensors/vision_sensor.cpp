@@ -1,0 +1,152 @@
+#include "plugins/vision_sensors/vision_sensor.h"
+
+#include <algorithm>
+#include <mutex>
+
+#include "world/rng.h"
+
+namespace vigil::sensors {
+
+std::unique_ptr<VisionSensor> make_truth_sensor();  // truth_sensor.cpp
+
+namespace {
+
+using Factory = std::function<std::unique_ptr<VisionSensor>()>;
+
+std::map<std::string, Factory>& registry() {
+  static std::map<std::string, Factory> r = [] {
+    std::map<std::string, Factory> m;
+    m["truth"] = make_truth_sensor;
+    return m;
+  }();
+  return r;
+}
+
+std::mutex& registry_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+}  // namespace
+
+bool vision_sensor_exists(const std::string& name) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  return registry().count(name) != 0;
+}
+
+std::vector<std::string> vision_sensor_names() {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  std::vector<std::string> names;
+  for (const auto& [n, f] : registry()) names.push_back(n);
+  return names;
+}
+
+Result<std::unique_ptr<VisionSensor>> create_vision_sensor(const std::string& name) {
+  Factory f;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex());
+    auto it = registry().find(name);
+    if (it != registry().end()) f = it->second;
+  }
+  if (!f) {
+    std::string known;
+    for (const auto& n : vision_sensor_names()) known += (known.empty() ? "" : ", ") + n;
+    return bad_input("", 0, "plugin", "no vision sensor '" + name + "' (known: " + known + ")");
+  }
+  return f();
+}
+
+void register_vision_sensor(const std::string& name, Factory factory) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  registry()[name] = std::move(factory);
+}
+
+// ---- VisionSensorHost ----
+
+Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenario& scenario, render::CameraRig* rig) {
+  std::unique_ptr<VisionSensorHost> host(new VisionSensorHost());
+  for (size_t i = 0; i < scenario.cameras.size(); ++i) {
+    const CameraSpec& cam = scenario.cameras[i];
+    if (cam.plugin.empty()) continue;
+    const std::string key = "cameras[" + std::to_string(i) + "]";
+    if (!vision_sensor_exists(cam.plugin)) {
+      std::string known;
+      for (const auto& n : vision_sensor_names()) known += (known.empty() ? "" : ", ") + n;
+      return bad_input(scenario.file.string(), cam.line, key + ".plugin",
+                       "'" + cam.plugin + "' is not a vision sensor (vision sensors: " + known + ")");
+    }
+    auto sensor = create_vision_sensor(cam.plugin);
+    if (!sensor) return sensor.error();
+    auto params = resolve_params((*sensor)->params(), cam.params, scenario.file.string(), key + ".params");
+    if (!params) return params.error();
+    SensorContext ctx;
+    ctx.camera = cam;
+    ctx.model = render::camera_model(cam);
+    ctx.scenario_file = scenario.file.string();
+    ctx.seed = Rng::stream(scenario.seed, "vision_sensor:" + cam.id).next();
+    if (Status s = (*sensor)->configure(*params, ctx); !s) {
+      Error e = s.error();
+      if (e.file.empty()) e.file = scenario.file.string();
+      if (e.line == 0) e.line = cam.line;
+      if (e.key.empty() || e.key.rfind(key, 0) != 0) e.key = key + ".params" + (e.key.empty() ? "" : "." + e.key);
+      return e;
+    }
+    auto a = std::make_unique<Attached>();
+    a->camera = cam;
+    a->sensor = std::move(*sensor);
+    if (a->sensor->wants_frames()) {
+      if (!rig) return internal_error("camera " + cam.id + ": a frame-consuming vision sensor needs the camera rig");
+      VisionSensorHost* self = host.get();
+      Attached* att = a.get();
+      rig->add_consumer(cam.id, [self, att](const CameraSpec&, const vision::StereoFrame& frame, const World& world) {
+        std::vector<vision::Track> fresh;
+        if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return s;
+        ++att->index;
+        return self->emit(&fresh);
+      });
+    }
+    host->sensors_.push_back(std::move(a));
+  }
+  return host;
+}
+
+Status VisionSensorHost::start(const World& world, const std::filesystem::path& out_dir) {
+  tracks_.clear();
+  if (!out_dir.empty() && !sensors_.empty()) {
+    if (Status s = out_.open(out_dir / "tracks.jsonl"); !s) return s;
+    writing_ = true;
+  }
+  return after_step(world);
+}
+
+Status VisionSensorHost::after_step(const World& world) {
+  for (auto& a : sensors_) {
+    if (a->sensor->wants_frames() || world.time() < a->next_tick) continue;
+    std::vector<vision::Track> fresh;
+    if (Status s = a->sensor->tick(nullptr, world, &fresh); !s) return s;
+    ++a->index;
+    a->next_tick = from_seconds(static_cast<double>(a->index) / a->camera.rate_hz);
+    if (Status s = emit(&fresh); !s) return s;
+  }
+  return Status::Ok();
+}
+
+Status VisionSensorHost::emit(std::vector<vision::Track>* fresh) {
+  for (auto& t : *fresh) {
+    if (writing_) {
+      if (Status s = out_.write(t); !s) return s;
+    }
+    tracks_.push_back(std::move(t));
+  }
+  return Status::Ok();
+}
+
+Status VisionSensorHost::finish(const World& world) {
+  if (writing_) {
+    writing_ = false;
+    return out_.close();
+  }
+  return Status::Ok();
+}
+
+}  // namespace vigil::sensors

@@ -1,0 +1,89 @@
+// Vision sensor models: the plugins attached to a scenario camera (`plugin:` under a camera)
+// that turn what the camera sees into map-frame tracks each camera tick. Two kinds, as Stage
+// offers a blobfinder beside its camera:
+//   - pipelines that need rendered frames (the plan-view tracker of section 10.4), fed by the
+//     CameraRig's OSMesa frames;
+//   - `truth`: a fast model that reads the world's ground truth and reports what is in the
+//     camera's view with position noise, misses and false alarms, for large runs without rendering.
+// VisionSensorHost runs them all during `vigil run` and writes DIR/tracks.jsonl.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "plugins/stereo_camera/stereo_camera.h"
+#include "vision/frame_source.h"
+#include "vision/stereo_camera_model.h"
+#include "vision/track.h"
+#include "vision/track_io.h"
+#include "world/params.h"
+#include "world/runner.h"
+#include "world/scenario.h"
+#include "world/world.h"
+
+namespace vigil::sensors {
+
+struct SensorContext {
+  CameraSpec camera;                  // the camera the sensor is attached to
+  vision::StereoCameraModel model;    // its stereo model (pose in the map frame)
+  std::string scenario_file;
+  uint64_t seed = 0;                  // the sensor's own seed, derived from the run's
+};
+
+class VisionSensor {
+ public:
+  virtual ~VisionSensor() = default;
+  virtual std::vector<ParamSpec> params() const = 0;
+  // Takes checked parameters; errors name the key.
+  virtual Status configure(const ParamSet& params, const SensorContext& ctx) = 0;
+  // True when the sensor consumes rendered frames; false when it reads the world directly.
+  virtual bool wants_frames() const = 0;
+  // One camera tick at the world's current time: `frame` is the rendered stereo frame (null for
+  // sensors that do not want frames). Appends this tick's tracks to `out`.
+  virtual Status tick(const vision::StereoFrame* frame, const World& world, std::vector<vision::Track>* out) = 0;
+};
+
+// Built-in vision sensors by name ("truth", ...).
+bool vision_sensor_exists(const std::string& name);
+std::vector<std::string> vision_sensor_names();
+Result<std::unique_ptr<VisionSensor>> create_vision_sensor(const std::string& name);
+// Adds a sensor factory (used by the plan-view pipeline and by tests).
+void register_vision_sensor(const std::string& name, std::function<std::unique_ptr<VisionSensor>()> factory);
+
+// Runs the vision sensors of a scenario's cameras during a run, at each camera's rate: frame
+// sensors get the rig's rendered frames, the others tick on their own. Writes every track to
+// DIR/tracks.jsonl in time order (and keeps them for callers).
+class VisionSensorHost : public RunObserver {
+ public:
+  // Configures a sensor for every camera with a `plugin`; the rig is used for frame sensors
+  // (it must also be in the run's observers, before this host). Errors name the scenario line.
+  static Result<std::unique_ptr<VisionSensorHost>> create(const Scenario& scenario, render::CameraRig* rig);
+  bool empty() const { return sensors_.empty(); }
+
+  Status start(const World& world, const std::filesystem::path& out_dir) override;
+  Status after_step(const World& world) override;
+  Status finish(const World& world) override;
+
+  const std::vector<vision::Track>& tracks() const { return tracks_; }
+
+ private:
+  struct Attached {
+    CameraSpec camera;
+    std::unique_ptr<VisionSensor> sensor;
+    SimTime next_tick = 0;
+    int64_t index = 0;
+  };
+  Status emit(std::vector<vision::Track>* fresh);
+
+  std::vector<std::unique_ptr<Attached>> sensors_;
+  std::vector<vision::Track> tracks_;
+  vision::TrackJsonlWriter out_;
+  bool writing_ = false;
+};
+
+}  // namespace vigil::sensors

@@ -1,0 +1,314 @@
+// vigil eval RUN_DIR [--match-distance M] [--camera ID] [--max-range M (--camera-xy X,Y | --scenario FILE)]
+//                    [--in-view] [--classes person,bag] [--exclude-carried] [--camera-rate HZ] [--tracks FILE]
+//   Multi-object-tracking metrics of a run's tracks.jsonl against its ground_truth.jsonl in the
+//   map frame; writes RUN_DIR/eval.json ("tracking", other top-level keys kept) and prints a table.
+// vigil eval --mot-gt GT.txt --mot-test TEST.txt [--iou-threshold 0.5] [--gt-min-confidence 1]
+//   The same metrics on MOTChallenge box files (py-motmetrics 1.4.0 figures), printed as JSON.
+// Documented in docs/EVALUATION.md.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tools/vigil/commands.h"
+#include "vision/map_track_eval.h"
+#include "vision/mot_metrics.h"
+#include "vision/track_io.h"
+#include "world/scenario.h"
+
+namespace vigil::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using vision::MotMetrics;
+
+// py-motmetrics' names, in the order of its default summary.
+nlohmann::ordered_json motmetrics_json(const MotMetrics& m) {
+  nlohmann::ordered_json j;
+  j["idf1"] = m.idf1;
+  j["idp"] = m.idp;
+  j["idr"] = m.idr;
+  j["recall"] = m.recall;
+  j["precision"] = m.precision;
+  j["num_unique_objects"] = m.num_unique_objects;
+  j["mostly_tracked"] = m.mostly_tracked;
+  j["partially_tracked"] = m.partially_tracked;
+  j["mostly_lost"] = m.mostly_lost;
+  j["num_false_positives"] = m.num_false_positives;
+  j["num_misses"] = m.num_misses;
+  j["num_switches"] = m.num_switches;
+  j["num_fragmentations"] = m.num_fragmentations;
+  j["mota"] = m.mota;
+  j["motp"] = m.motp;
+  j["num_transfer"] = m.num_transfer;
+  j["num_ascend"] = m.num_ascend;
+  j["num_migrate"] = m.num_migrate;
+  j["num_frames"] = m.num_frames;
+  j["num_objects"] = m.num_objects;
+  j["num_predictions"] = m.num_predictions;
+  j["num_matches"] = m.num_matches;
+  j["idtp"] = m.idtp;
+  j["idfp"] = m.idfp;
+  j["idfn"] = m.idfn;
+  return j;
+}
+
+// The map-frame figures as eval.json names them.
+nlohmann::ordered_json tracking_json(const MotMetrics& m) {
+  nlohmann::ordered_json j;
+  j["mota"] = m.mota;
+  j["motp_m"] = m.motp;
+  j["idf1"] = m.idf1;
+  j["idp"] = m.idp;
+  j["idr"] = m.idr;
+  j["recall"] = m.recall;
+  j["precision"] = m.precision;
+  j["id_switches"] = m.num_switches;
+  j["fragmentations"] = m.num_fragmentations;
+  j["false_positives"] = m.num_false_positives;
+  j["misses"] = m.num_misses;
+  j["matches"] = m.num_detections;
+  j["ground_truth_count"] = m.num_objects;
+  j["track_count"] = m.num_predictions;
+  j["unique_objects"] = m.num_unique_objects;
+  j["unique_tracks"] = m.num_unique_hypotheses;
+  j["mostly_tracked"] = m.mostly_tracked;
+  j["partially_tracked"] = m.partially_tracked;
+  j["mostly_lost"] = m.mostly_lost;
+  return j;
+}
+
+std::string cell(double v, int width) {
+  char buf[64];
+  if (std::isfinite(v)) {
+    std::snprintf(buf, sizeof buf, "%*.4f", width, v);
+  } else {
+    std::snprintf(buf, sizeof buf, "%*s", width, "-");
+  }
+  return buf;
+}
+
+void print_row(const std::string& name, const MotMetrics& m) {
+  std::printf("%-8s%s%s%s%s%s%s%s %6lld %4lld %4lld %4lld %6lld %6lld %5lld %5lld\n", name.c_str(), cell(m.mota, 8).c_str(),
+              cell(m.motp, 8).c_str(), cell(m.idf1, 8).c_str(), cell(m.idp, 8).c_str(), cell(m.idr, 8).c_str(),
+              cell(m.recall, 8).c_str(), cell(m.precision, 8).c_str(), static_cast<long long>(m.num_objects),
+              static_cast<long long>(m.mostly_tracked), static_cast<long long>(m.partially_tracked),
+              static_cast<long long>(m.mostly_lost), static_cast<long long>(m.num_false_positives),
+              static_cast<long long>(m.num_misses), static_cast<long long>(m.num_switches),
+              static_cast<long long>(m.num_fragmentations));
+}
+
+// Reads RUN_DIR/eval.json when it exists (its other keys are kept); an empty object otherwise.
+Result<nlohmann::ordered_json> read_eval_json(const fs::path& path) {
+  if (!fs::exists(path)) return nlohmann::ordered_json::object();
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return bad_input(path.string(), 0, "", "cannot open file");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  auto j = nlohmann::ordered_json::parse(ss.str(), nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object())
+    return bad_input(path.string(), 0, "", "not a JSON object (fix or remove it: vigil eval adds its \"tracking\" key to it)");
+  return j;
+}
+
+Status write_text_file(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) return bad_input(tmp.string(), 0, "", "cannot open for writing");
+    f << text;
+    if (!f) return internal_error("cannot write " + tmp.string());
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) return internal_error("cannot replace " + path.string() + ": " + ec.message());
+  return Status::Ok();
+}
+
+struct Opts {
+  std::string run_dir, tracks, scenario, camera, mot_gt, mot_test;
+  double match_distance = 0.5;
+  std::optional<double> max_range, camera_rate;
+  std::vector<double> camera_xy;
+  std::vector<std::string> classes;
+  bool exclude_carried = false, in_view = false;
+  double iou_threshold = 0.5;
+  double gt_min_confidence = 1.0;
+};
+
+void run_mot_challenge(const Opts& o) {
+  if (o.mot_gt.empty() || o.mot_test.empty())
+    throw Exit{report(bad_input("", 0, o.mot_gt.empty() ? "--mot-gt" : "--mot-test", "--mot-gt and --mot-test go together"))};
+  if (!o.run_dir.empty())
+    throw Exit{report(bad_input("", 0, "RUN_DIR", "give either RUN_DIR or --mot-gt/--mot-test, not both"))};
+  if (!(o.iou_threshold >= 0 && o.iou_threshold <= 1))
+    throw Exit{report(bad_input("", 0, "--iou-threshold", "must be in [0, 1] (a pair matches when 1 - IoU <= it)"))};
+  vision::MotChallengeLoadOptions gt_opts;
+  gt_opts.min_confidence = o.gt_min_confidence;
+  auto gt = vision::load_mot_challenge(o.mot_gt, gt_opts);
+  if (!gt) throw Exit{report(gt.error())};
+  auto test = vision::load_mot_challenge(o.mot_test);
+  if (!test) throw Exit{report(test.error())};
+  vision::MotParams params;
+  params.max_distance = o.iou_threshold;
+  auto m = vision::evaluate_mot_challenge(*gt, *test, params);
+  if (!m) throw Exit{report(m.error())};
+  std::printf("%s\n", motmetrics_json(*m).dump(2).c_str());
+}
+
+void run_map_eval(const Opts& o) {
+  if (o.run_dir.empty()) throw Exit{report(bad_input("", 0, "RUN_DIR", "give a run folder, or --mot-gt and --mot-test"))};
+  const fs::path dir = o.run_dir;
+  if (!fs::is_directory(dir)) throw Exit{report(bad_input(dir.string(), 0, "RUN_DIR", "not a folder"))};
+  const fs::path gt_path = dir / "ground_truth.jsonl";
+  const fs::path tracks_path = o.tracks.empty() ? dir / "tracks.jsonl" : fs::path(o.tracks);
+
+  vision::MapTrackEvalOptions eo;
+  eo.match_distance = o.match_distance;
+  eo.camera = o.camera;
+  eo.max_range = o.max_range;
+  eo.exclude_carried = o.exclude_carried;
+  for (const std::string& c : o.classes) {
+    const auto cls = vision::parse_track_class(c);
+    if (!cls) throw Exit{report(bad_input("", 0, "--classes", "unknown class '" + c + "' (known: person, bag, robot, unknown)"))};
+    eo.classes.push_back(*cls);
+  }
+  if (!o.camera_xy.empty()) {
+    if (o.camera_xy.size() != 2) throw Exit{report(bad_input("", 0, "--camera-xy", "expected X,Y"))};
+    eo.camera_x = o.camera_xy[0];
+    eo.camera_y = o.camera_xy[1];
+  }
+  if (o.camera_rate) {
+    if (!(*o.camera_rate > 0)) throw Exit{report(bad_input("", 0, "--camera-rate", "must be positive"))};
+    eo.camera_period_s = 1.0 / *o.camera_rate;
+  }
+  // The camera's position (and rate) from the scenario.
+  if (!o.scenario.empty()) {
+    if (o.camera.empty()) throw Exit{report(bad_input("", 0, "--scenario", "needs --camera ID to pick the camera"))};
+    ScenarioContext ctx;  // plugin names are not checked: only the camera's pose is needed
+    auto sc = load_scenario(o.scenario, ctx);
+    if (!sc) throw Exit{report(sc.error())};
+    const CameraSpec* cam = nullptr;
+    for (const CameraSpec& c : sc->cameras)
+      if (c.id == o.camera) cam = &c;
+    if (!cam) throw Exit{report(bad_input(o.scenario, 0, "cameras", "no camera '" + o.camera + "'"))};
+    if (o.camera_xy.empty()) {
+      eo.camera_x = cam->position.x;
+      eo.camera_y = cam->position.y;
+    }
+    if (!o.camera_rate) eo.camera_period_s = 1.0 / cam->rate_hz;
+    if (o.in_view) {
+      const double hfov = cam->fx ? 2 * std::atan(0.5 * cam->width / *cam->fx) : cam->hfov.value_or(60 * std::numbers::pi / 180);
+      eo.half_fov = 0.5 * hfov;
+      eo.camera_yaw = cam->yaw;
+    }
+  }
+  if (o.in_view && o.scenario.empty())
+    throw Exit{report(bad_input("", 0, "--in-view", "needs the camera from a scenario: --scenario FILE --camera ID"))};
+  if (o.max_range && o.camera_xy.empty() && o.scenario.empty())
+    throw Exit{report(bad_input("", 0, "--max-range", "needs the camera position: --camera-xy X,Y or --scenario FILE --camera ID"))};
+
+  auto gt = vision::load_ground_truth_ticks(gt_path);
+  if (!gt) throw Exit{report(gt.error())};
+  if (gt->empty()) throw Exit{report(bad_input(gt_path.string(), 0, "", "no tick lines"))};
+  auto tracks = vision::load_tracks_jsonl(tracks_path);
+  if (!tracks) throw Exit{report(tracks.error())};
+  auto r = vision::evaluate_map_tracks(*gt, *tracks, eo);
+  if (!r) {
+    Error e = r.error();
+    if (e.key == "camera" || e.key == "tracks") {
+      e.file = tracks_path.string();
+    } else if (e.key == "match_distance") {
+      e.key = "--match-distance";
+    } else if (e.key == "max_range") {
+      e.key = "--max-range";
+    } else if (e.key == "camera_period") {
+      e.key = "--camera-rate";
+    }
+    throw Exit{report(e)};
+  }
+
+  const fs::path eval_path = dir / "eval.json";
+  auto eval = read_eval_json(eval_path);
+  if (!eval) throw Exit{report(eval.error())};
+  nlohmann::ordered_json t;
+  t["ground_truth_file"] = gt_path.filename().string();
+  t["tracks_file"] = o.tracks.empty() ? tracks_path.filename().string() : tracks_path.string();
+  t["camera"] = o.camera.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(o.camera);
+  t["cameras"] = r->cameras;
+  t["match_distance_m"] = eo.match_distance;
+  t["max_range_m"] = eo.max_range ? nlohmann::ordered_json(*eo.max_range) : nlohmann::ordered_json(nullptr);
+  t["in_view"] = eo.half_fov.has_value();
+  t["camera_period_s"] = r->camera_period_s;
+  t["frames"] = r->frames;
+  t["frames_without_tracks"] = r->frames_without_tracks;
+  t["skipped_track_stamps"] = r->skipped_track_stamps;
+  const nlohmann::ordered_json overall = tracking_json(r->overall);
+  for (const auto& item : overall.items()) t[item.key()] = item.value();
+  nlohmann::ordered_json per_class = nlohmann::ordered_json::object();
+  for (const auto& [cls, m] : r->per_class) per_class[std::string(vision::to_string(cls))] = tracking_json(m);
+  t["per_class"] = per_class;
+  (*eval)["tracking"] = t;
+  if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
+
+  char head[256];
+  std::snprintf(head, sizeof head, "%lld frames (%.2f Hz), match within %.2f m", static_cast<long long>(r->frames),
+                r->camera_period_s > 0 ? 1.0 / r->camera_period_s : 0.0, eo.match_distance);
+  std::string line = "vigil eval " + dir.string() + ": " + head + ", " + (o.camera.empty() ? "all cameras" : "camera " + o.camera);
+  if (eo.max_range) {
+    char range[96];
+    std::snprintf(range, sizeof range, ", ground truth within %.2f m of (%.2f, %.2f)", *eo.max_range, eo.camera_x, eo.camera_y);
+    line += range;
+  }
+  if (eo.half_fov) {
+    char fov[96];
+    std::snprintf(fov, sizeof fov, ", in a %.1f deg field of view", 2 * *eo.half_fov * 180 / std::numbers::pi);
+    line += fov;
+  }
+  std::printf("%s\n", line.c_str());
+  std::printf("%-8s%8s%8s%8s%8s%8s%8s%8s %6s %4s %4s %4s %6s %6s %5s %5s\n", "class", "MOTA", "MOTP(m)", "IDF1", "IDP", "IDR",
+              "Rcll", "Prcn", "GT", "MT", "PT", "ML", "FP", "FN", "IDSW", "Frag");
+  print_row("all", r->overall);
+  for (const auto& [cls, m] : r->per_class) print_row(std::string(vision::to_string(cls)), m);
+  std::printf("wrote %s\n", eval_path.string().c_str());
+}
+
+}  // namespace
+
+void add_eval_command(CLI::App& app) {
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("eval", "Tracking metrics (CLEAR MOT, IDF1) of a run's tracks, or of MOTChallenge files");
+  cmd->add_option("run_dir", o->run_dir, "run folder with ground_truth.jsonl and tracks.jsonl (writes eval.json there)");
+  cmd->add_option("--match-distance", o->match_distance, "a track matches a ground-truth entity within this many metres")
+      ->capture_default_str();
+  cmd->add_option("--camera", o->camera, "evaluate only this camera's tracks");
+  cmd->add_option("--max-range", o->max_range, "only ground truth and tracks within this many metres of the camera");
+  cmd->add_option("--camera-xy", o->camera_xy, "camera position X,Y in the map frame (for --max-range)")->delimiter(',');
+  cmd->add_option("--scenario", o->scenario, "scenario file to read the --camera's position and rate from");
+  cmd->add_option("--camera-rate", o->camera_rate, "camera frame rate in Hz (default: from --scenario, else from the track stamps)");
+  cmd->add_option("--classes", o->classes, "only these classes (person, bag, robot, unknown)")->delimiter(',');
+  cmd->add_flag("--in-view", o->in_view, "only ground truth and tracks inside the --scenario camera's horizontal field of view");
+  cmd->add_flag("--exclude-carried", o->exclude_carried, "leave out objects while a person carries them");
+  cmd->add_option("--tracks", o->tracks, "tracks file (default RUN_DIR/tracks.jsonl)");
+  cmd->add_option("--mot-gt", o->mot_gt, "MOTChallenge ground truth (frame,id,x,y,w,h,conf,...)");
+  cmd->add_option("--mot-test", o->mot_test, "MOTChallenge tracker output to evaluate against --mot-gt");
+  cmd->add_option("--iou-threshold", o->iou_threshold, "MOTChallenge: a pair matches when 1 - IoU <= this")->capture_default_str();
+  cmd->add_option("--gt-min-confidence", o->gt_min_confidence, "MOTChallenge: ground-truth rows with a lower conf are ignored")
+      ->capture_default_str();
+  cmd->callback([o] {
+    if (!o->mot_gt.empty() || !o->mot_test.empty()) {
+      run_mot_challenge(*o);
+    } else {
+      run_map_eval(*o);
+    }
+  });
+}
+
+}  // namespace vigil::cli
