@@ -184,6 +184,25 @@ TEST(Cli, RunWithAVisionSensorOnACameraWritesTracks) {
   EXPECT_NE(wrong.out.find("not a vision sensor"), std::string::npos) << wrong.out;
 }
 
+TEST(Cli, TrackRunsThePlanViewPipelineOnARenderedSource) {
+  const fs::path out = temp_dir("track");
+  const Output o = vigil_cmd("track --source 'render:" + scenario("dis_left_bag").string() +
+                             ";camera=cam_corridor;frames=20;disparity=sgbm' --out " + out.string() + " --quiet");
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("20 frames"), std::string::npos) << o.out;
+  EXPECT_TRUE(fs::exists(out / "tracks.jsonl"));
+  EXPECT_TRUE(fs::exists(out / "annotated.avi"));
+  EXPECT_TRUE(fs::exists(out / "annotated_last.png"));
+  // A mono source has no depth: a clear error, exit 2.
+  const fs::path g = test::source_dir() / "tests" / "golden" / "dis_left_bag_cam_corridor_t12_left.png";
+  const Output mono = vigil_cmd("track --source 'images:" + g.string() + "' --out " + out.string() + " --quiet");
+  EXPECT_EQ(mono.code, 2) << mono.out;
+  EXPECT_NE(mono.out.find("calibrated stereo source"), std::string::npos) << mono.out;
+  const Output missing = vigil_cmd("track --source 'video:/no/such.avi' --out " + out.string() + " --quiet");
+  EXPECT_EQ(missing.code, 2) << missing.out;
+  EXPECT_NE(missing.out.find("/no/such.avi"), std::string::npos) << missing.out;
+}
+
 TEST(Cli, BenchRenderReportsPairsPerSecondBesideThePlainScene) {
   const fs::path out = temp_dir("bench_render") / "render.json";
   const Output o = vigil_cmd("bench render --pairs 3 --sizes 160x120,80x60 --at 5 --json " + out.string());

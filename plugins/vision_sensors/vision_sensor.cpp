@@ -7,7 +7,8 @@
 
 namespace vigil::sensors {
 
-std::unique_ptr<VisionSensor> make_truth_sensor();  // truth_sensor.cpp
+std::unique_ptr<VisionSensor> make_truth_sensor();     // truth_sensor.cpp
+std::unique_ptr<VisionSensor> make_planview_sensor();  // planview_sensor.cpp
 
 namespace {
 
@@ -17,6 +18,7 @@ std::map<std::string, Factory>& registry() {
   static std::map<std::string, Factory> r = [] {
     std::map<std::string, Factory> m;
     m["truth"] = make_truth_sensor;
+    m["planview"] = make_planview_sensor;
     return m;
   }();
   return r;

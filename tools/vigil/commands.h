@@ -21,6 +21,7 @@ void add_validate_command(CLI::App& app);  // vigil validate FILE...
 void add_map_command(CLI::App& app);       // vigil map info|export
 void add_bench_command(CLI::App& app);     // vigil bench sim|render|stereo
 void add_bench_camera_commands(CLI::App* bench);  // vigil bench render, vigil bench stereo
+void add_track_command(CLI::App& app);     // vigil track --source SPEC --pipeline planview --out DIR
 void add_render_command(CLI::App& app);    // vigil render SCENARIO --camera ID --out DIR
 void add_eval_command(CLI::App& app);      // vigil eval RUN_DIR | --mot-gt GT --mot-test TEST
 

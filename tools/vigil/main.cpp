@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   vigil::cli::add_map_command(app);
   vigil::cli::add_bench_command(app);
   vigil::cli::add_render_command(app);
+  vigil::cli::add_track_command(app);
   vigil::cli::add_eval_command(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,128 @@
+// The whole stereo plan-view system (foreground, plan view, tracking) on rendered frames with
+// SGBM disparity, as `vigil track` and the `planview` camera sensor run it: tracks of the
+// person and the bag come out near the truth; frames without depth, of another size or out of
+// order are clear errors; the annotated view has a fixed size.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+
+#include <opencv2/imgproc.hpp>
+
+#include "plugins/stereo_camera/stereo_camera.h"
+#include "tests/test_util.h"
+#include "vision/planview_system.h"
+
+namespace vigil::vision {
+namespace {
+
+Scenario load(const std::string& name) {
+  auto s = load_scenario(test::source_dir() / "scenarios" / (name + ".yaml"));
+  EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().str());
+  return *s;
+}
+
+// dis_left_bag from cam_corridor at 320x240 with SGBM: A walks towards the camera carrying bag1
+// and puts it down in view.
+TEST(PlanViewSystem, TracksThePersonAndTheBagFromSgbmDepth) {
+  Scenario sc = load("dis_left_bag");
+  for (auto& c : sc.cameras) {
+    c.width = 320;
+    c.height = 240;
+  }
+  sc.duration = 24;
+  render::RenderedSourceOptions ro;
+  StereoMatcherParams mp;
+  mp.num_disparities = 32;
+  ro.matcher = mp;
+  auto src = render::RenderedStereoSource::open(sc, "cam_corridor", ro);
+  ASSERT_TRUE(src.ok()) << src.error().str();
+  PlanViewSystemParams sp;
+  sp.tracking.camera = "cam_corridor";
+  auto sys = PlanViewSystem::create(*(*src)->camera_model(), sp);
+  ASSERT_TRUE(sys.ok()) << sys.error().str();
+  StereoFrame f;
+  double err_sum = 0;
+  int matched = 0, frames_with_truth_in_range = 0;
+  std::map<int, int> ids_on_person;
+  cv::Size annotated;
+  while (true) {
+    auto more = (*src)->next(&f);
+    ASSERT_TRUE(more.ok()) << more.error().str();
+    if (!*more) break;
+    auto tracks = sys->process(f);
+    ASSERT_TRUE(tracks.ok()) << tracks.error().str();
+    const cv::Mat a = sys->annotate(f, *tracks);
+    if (annotated.area() == 0) annotated = a.size();
+    ASSERT_EQ(a.size(), annotated);
+    // The person, when within 7 m of the camera.
+    const World& w = (*src)->world();
+    for (const auto& p : w.people()) {
+      if (!p.present) continue;
+      const double range = std::hypot(p.pose.x - 27.0, p.pose.y - 3.9);
+      if (range > 7.0 || range < 1.5) continue;
+      ++frames_with_truth_in_range;
+      double best = 1e9;
+      int best_id = -1;
+      for (const auto& t : *tracks) {
+        const double d = std::hypot(t.x - p.pose.x, t.y - p.pose.y);
+        if (d < best) best = d, best_id = t.id;
+      }
+      if (best < 0.5) {
+        ++matched;
+        err_sum += best;
+        ++ids_on_person[best_id];
+      }
+    }
+  }
+  ASSERT_GT(frames_with_truth_in_range, 30);
+  const double recall = static_cast<double>(matched) / frames_with_truth_in_range;
+  std::printf("person within 1.5-7 m: %d frames, matched %.1f%%, mean error %.3f m, %zu ids\n",
+              frames_with_truth_in_range, 100 * recall, err_sum / std::max(matched, 1), ids_on_person.size());
+  // Measured 56.5% at 320x240 with SGBM (the person is missed mostly while entering at the far
+  // end and when closer than ~3 m with the head out of the image); the target (MOTA 0.9)
+  // needs tuning on SGBM depth: this guards against regressions below today's figure.
+  EXPECT_GT(recall, 0.5);
+  EXPECT_LT(err_sum / matched, 0.2);
+  EXPECT_LE(ids_on_person.size(), 2u);
+}
+
+TEST(PlanViewSystem, FramesWithoutDepthOfAnotherSizeOrOutOfOrderAreErrors) {
+  Scenario sc = load("dis_left_bag");
+  render::RenderedSourceOptions ro;
+  ro.max_frames = 2;
+  auto src = render::RenderedStereoSource::open(sc, "cam_corridor", ro);
+  ASSERT_TRUE(src.ok());
+  auto sys = PlanViewSystem::create(*(*src)->camera_model());
+  ASSERT_TRUE(sys.ok());
+  StereoFrame f0, f1;
+  ASSERT_TRUE((*src)->next(&f0).ok());
+  ASSERT_TRUE((*src)->next(&f1).ok());
+  StereoFrame no_depth = f0;
+  no_depth.depth = cv::Mat();
+  auto r = sys->process(no_depth);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().str().find("no depth"), std::string::npos) << r.error().str();
+  StereoFrame small = f0;
+  cv::resize(f0.left, small.left, {320, 240});
+  r = sys->process(small);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().str().find("320x240"), std::string::npos) << r.error().str();
+  StereoFrame empty;
+  ASSERT_FALSE(sys->process(empty).ok());
+  // NaN and inf depth are no depth, not a crash.
+  StereoFrame nan = f0;
+  nan.depth = f0.depth.clone();
+  nan.depth(cv::Rect(0, 0, 320, 240)).setTo(std::numeric_limits<float>::quiet_NaN());
+  nan.depth(cv::Rect(320, 240, 320, 240)).setTo(std::numeric_limits<float>::infinity());
+  ASSERT_TRUE(sys->process(nan).ok());
+  ASSERT_TRUE(sys->process(f1).ok());
+  // f0 again: its stamp is before f1's.
+  r = sys->process(f0);
+  ASSERT_FALSE(r.ok());
+}
+
+}  // namespace
+}  // namespace vigil::vision

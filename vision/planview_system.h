@@ -1,0 +1,57 @@
+// The stereo plan-view vision system of chapter section 10.4 as one object: the YUV + depth
+// Gaussian-mixture foreground (10.4.1), the plan-view maps (10.4.2) and the Kalman template
+// tracker (10.4.3), fed stereo frames (colour and depth) from any frame source, rendered or
+// recorded, with the annotated view for videos.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "common/status.h"
+#include "vision/frame_source.h"
+#include "vision/plan_view.h"
+#include "vision/planview_tracker.h"
+#include "vision/stereo_camera_model.h"
+#include "vision/track.h"
+#include "vision/yuvd_background.h"
+
+namespace vigil::vision {
+
+struct PlanViewSystemParams {
+  YuvdBackgroundParams background;
+  PlanViewParams plan;
+  PlanViewTrackerParams tracking;  // tracking.camera names the tracks' camera
+};
+
+class PlanViewSystem {
+ public:
+  static Result<PlanViewSystem> create(const StereoCameraModel& camera, const PlanViewSystemParams& params = {});
+
+  // One frame: needs frame.left (8-bit BGR) and frame.depth (CV_32F metres, invalid 0/NaN/inf)
+  // of the camera's size, stamps increasing. Returns the tracks reported on this frame.
+  Result<std::vector<Track>> process(const StereoFrame& frame);
+
+  const cv::Mat& foreground() const { return foreground_; }
+  const PlanView& plan_view() const { return pipeline_.plan_view(); }
+  const StereoCameraModel& camera() const { return camera_; }
+
+  // The annotated view of the last frame: the camera view with the tracks drawn (a box around
+  // each track's projected cylinder, id and class), the foreground mask, and the plan-view
+  // occupancy and height maps below, in one BGR image.
+  cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const;
+
+ private:
+  PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline)
+      : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)) {}
+  StereoCameraModel camera_;
+  YuvdBackground background_;
+  PlanViewPipeline pipeline_;
+  cv::Mat foreground_;
+};
+
+// Draws the tracks on a camera image: the projected box of each track's cylinder (width,
+// height), its id and class.
+void draw_tracks_on_view(cv::Mat* bgr, const StereoCameraModel& camera, const std::vector<Track>& tracks);
+
+}  // namespace vigil::vision

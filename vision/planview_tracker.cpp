@@ -1,0 +1,890 @@
+#include "vision/planview_tracker.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+namespace vigil::vision {
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec4 = Eigen::Matrix<double, 4, 1>;
+using Mat4 = Eigen::Matrix<double, 4, 4>;
+using Mat46 = Eigen::Matrix<double, 4, 6>;
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+Error param_error(const std::string& key, const std::string& message) { return bad_input("", 0, key, message); }
+
+std::string grid_str(const PlanViewGrid& g) {
+  return std::to_string(g.cols) + "x" + std::to_string(g.rows) + " cells of " + num(g.cell) + " m from (" +
+         num(g.x_min) + ", " + num(g.y_min) + ")";
+}
+
+constexpr int kLanes = 8;  // partial sums kept apart so the compiler vectorises without reassociating
+
+// One connected blob of the plan-view mask.
+struct Blob {
+  double mass = 0;           // sum of theta_sm (occupancy units)
+  double cx = 0, cy = 0;     // centre of mass, cells
+  double max_height = 0;     // m
+  double sxx = 0, sxy = 0, syy = 0;  // occupancy-weighted second moments (cells^2, about the origin)
+};
+
+}  // namespace
+
+TrackClass classify_track(double h, double w, const ClassifierParams& p) {
+  if (h >= p.person_min_height && h <= p.person_max_height) return TrackClass::kPerson;
+  if (h >= p.robot_min_height && h < p.robot_max_height && (h >= p.bag_max_height || w >= p.robot_min_width))
+    return TrackClass::kRobot;
+  if (h >= p.bag_min_height && h < p.bag_max_height && w < p.robot_min_width) return TrackClass::kBag;
+  return TrackClass::kUnknown;
+}
+
+Status PlanViewTrackerParams::validate() const {
+  auto pos = [](double v) { return v > 0 && std::isfinite(v); };
+  auto nonneg = [](double v) { return v >= 0 && std::isfinite(v); };
+  if (template_size < 4 || template_size > 400)
+    return param_error("template_size", "must be 4 to 400 cells, got " + std::to_string(template_size));
+  if (!nonneg(w_height)) return param_error("w_height", "must be >= 0");
+  if (!nonneg(w_occupancy) || !(w_height + w_occupancy > 0))
+    return param_error("w_occupancy", "must be >= 0, and w_height + w_occupancy > 0");
+  if (!nonneg(beta)) return param_error("beta", "must be >= 0");
+  if (!nonneg(alpha)) return param_error("alpha", "must be >= 0");
+  if (!pos(track_threshold)) return param_error("track_threshold", "must be positive, got " + num(track_threshold));
+  if (!nonneg(search_sigmas)) return param_error("search_sigmas", "must be >= 0");
+  if (!pos(search_min)) return param_error("search_min", "must be positive");
+  if (!pos(search_max) || search_max < search_min || search_max > 10)
+    return param_error("search_max", "must be in [search_min, 10] m, got " + num(search_max));
+  if (!pos(core_sigma)) return param_error("core_sigma", "must be positive");
+  if (!pos(height_radius)) return param_error("height_radius", "must be positive");
+  if (!(template_rate > 0 && template_rate <= 1))
+    return param_error("template_rate", "must be in (0, 1], got " + num(template_rate));
+  if (min_hits < 1) return param_error("min_hits", "must be at least 1");
+  if (max_missed < 1) return param_error("max_missed", "must be at least 1");
+  if (max_occluded < 0) return param_error("max_occluded", "must be >= 0");
+  if (!(gate >= 0) || !std::isfinite(gate)) return param_error("gate", "must be >= 0 (0 = none)");
+  if (!(occluded_position_noise > 0)) return param_error("occluded_position_noise", "must be positive");
+  if (!(reacquire_max >= 0)) return param_error("reacquire_max", "must be >= 0");
+  if (!(coast_hold_speed >= 0) || !std::isfinite(coast_hold_speed))
+    return param_error("coast_hold_speed", "must be >= 0 m/s");
+  if (!(coast_velocity_decay >= 0) || !std::isfinite(coast_velocity_decay))
+    return param_error("coast_velocity_decay", "must be >= 0 s (0 = none)");
+  if (!(occluded_match >= 0 && occluded_match <= 1)) return param_error("occluded_match", "must be in [0, 1]");
+  if (!(visible_surface_offset >= 0) || visible_surface_offset > 2)
+    return param_error("visible_surface_offset", "must be in [0, 2] m, got " + num(visible_surface_offset));
+  if (!nonneg(birth_min_area)) return param_error("birth_min_area", "must be >= 0");
+  if (!nonneg(birth_min_height)) return param_error("birth_min_height", "must be >= 0");
+  if (!nonneg(explain_distance)) return param_error("explain_distance", "must be >= 0");
+  if (!nonneg(reacquire_distance)) return param_error("reacquire_distance", "must be >= 0");
+  if (!pos(accel_noise)) return param_error("accel_noise", "must be positive");
+  if (!pos(height_noise)) return param_error("height_noise", "must be positive");
+  if (!pos(width_noise)) return param_error("width_noise", "must be positive");
+  if (!pos(position_noise)) return param_error("position_noise", "must be positive");
+  if (!pos(shape_measurement_noise)) return param_error("shape_measurement_noise", "must be positive");
+  if (!pos(initial_velocity_sigma)) return param_error("initial_velocity_sigma", "must be positive");
+  return Status::Ok();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct PlanViewTracker::Impl {
+  struct Trk {
+    int id = 0;
+    Vec6 x = Vec6::Zero();  // x, y, vx, vy (map), height, width
+    Mat6 P = Mat6::Identity();
+    std::vector<float> tau_o, tau_h;
+    double sum_o = 0, sum_h = 0, core_o = 0;  // sums of the templates; occupancy weighted by the core Gaussian
+    int hits = 0, misses = 0, occluded = 0;
+    bool confirmed = false;
+    bool missed = false;   // this frame
+    bool updated = false;  // this frame
+    bool born = false;     // this frame
+    double score = std::numeric_limits<double>::quiet_NaN();
+    double confidence = 0;
+    std::array<double, 4> votes{};
+    TrackClass cls = TrackClass::kUnknown;
+  };
+
+  const PlanViewGrid grid;
+  const PlanViewTrackerParams p;
+  const int T, half, pad;
+  std::vector<float> gauss;  // T x T, core Gaussian centred on (half, half)
+  cv::Mat occ, hgt, claim;   // padded copies (pad cells of zeros around the grid)
+  cv::Rect copied;           // grid rect copied into occ/hgt last frame
+  std::vector<cv::Rect> claimed;  // padded rects written in `claim` this frame
+  cv::Mat labels;            // connected blobs of the mask over view.active (CV_32S)
+  cv::Point label_origin;
+  std::vector<Blob> blobs;   // index = label
+  std::vector<Trk> tracks;
+  Eigen::Vector2d camera = Eigen::Vector2d::Zero();  // map frame
+  double camera_height = 0;                          // m above the floor
+  double smoothing = 0;  // cells
+  int next_id = 1;
+  bool have_stamp = false;
+  int64_t last_stamp = 0;
+
+  Impl(const PlanViewGrid& g, const PlanViewTrackerParams& prm)
+      : grid(g),
+        p(prm),
+        T(prm.template_size),
+        half(prm.template_size / 2),
+        pad(prm.template_size / 2 + static_cast<int>(std::ceil(prm.search_max / g.cell)) + 4) {
+    gauss.resize(static_cast<size_t>(T) * T);
+    const double s = p.core_sigma / grid.cell;
+    for (int r = 0; r < T; ++r)
+      for (int k = 0; k < T; ++k) {
+        const double d2 = (r - half) * (r - half) + (k - half) * (k - half);
+        gauss[static_cast<size_t>(r) * T + k] = static_cast<float>(std::exp(-0.5 * d2 / (s * s)));
+      }
+    occ = cv::Mat::zeros(grid.rows + 2 * pad, grid.cols + 2 * pad, CV_32F);
+    hgt = cv::Mat::zeros(occ.size(), CV_32F);
+    claim = cv::Mat::zeros(occ.size(), CV_32F);
+  }
+
+  // Padded-map pointer of grid cell (col, row).
+  const float* at(const cv::Mat& m, int col, int row) const { return m.ptr<float>(row + pad) + col + pad; }
+  float* at(cv::Mat& m, int col, int row) { return m.ptr<float>(row + pad) + col + pad; }
+  // Window of cells centred on (col, row) is safely inside the padded maps.
+  bool window_ok(int col, int row) const {
+    return col - half >= -pad && row - half >= -pad && col - half + T <= grid.cols + pad &&
+           row - half + T <= grid.rows + pad;
+  }
+
+  void copy_maps(const PlanView& v) {
+    if (!copied.empty()) {
+      const cv::Rect r(copied.x + pad, copied.y + pad, copied.width, copied.height);
+      occ(r).setTo(0);
+      hgt(r).setTo(0);
+    }
+    copied = v.active & cv::Rect(0, 0, grid.cols, grid.rows);
+    if (!copied.empty()) {
+      const cv::Rect r(copied.x + pad, copied.y + pad, copied.width, copied.height);
+      v.occupancy_smoothed(copied).copyTo(occ(r));
+      v.height_masked(copied).copyTo(hgt(r));
+    }
+  }
+
+  void find_blobs(const PlanView& v) {
+    blobs.clear();
+    label_origin = copied.tl();
+    if (copied.empty()) {
+      labels.release();
+      return;
+    }
+    const int n = cv::connectedComponents(v.mask(copied), labels, 8, CV_32S);
+    blobs.assign(std::max(n, 1), Blob{});
+    for (int r = 0; r < labels.rows; ++r) {
+      const int* l = labels.ptr<int>(r);
+      const int row = r + copied.y;
+      const float* o = at(occ, copied.x, row);
+      const float* h = at(hgt, copied.x, row);
+      for (int k = 0; k < labels.cols; ++k) {
+        if (!l[k]) continue;
+        Blob& b = blobs[l[k]];
+        const double col = k + copied.x;
+        b.mass += o[k];
+        b.cx += o[k] * col;
+        b.cy += o[k] * row;
+        b.max_height = std::max(b.max_height, static_cast<double>(h[k]));
+        b.sxx += o[k] * col * col;
+        b.sxy += o[k] * col * row;
+        b.syy += o[k] * static_cast<double>(row) * row;
+      }
+    }
+    for (Blob& b : blobs) {
+      if (b.mass > 0) {
+        b.cx /= b.mass;
+        b.cy /= b.mass;
+      }
+    }
+  }
+
+  int label_at(int col, int row) const {
+    if (labels.empty()) return 0;
+    const int r = row - label_origin.y, k = col - label_origin.x;
+    if (r < 0 || k < 0 || r >= labels.rows || k >= labels.cols) return 0;
+    return labels.at<int>(r, k);
+  }
+
+  // Eq. 10.8 at window centre (col, row) for track t; `pred` = predicted cell position.
+  double score_at(const Trk& t, int col, int row, const Eigen::Vector2d& pred, bool claims) const {
+    float acc_o[kLanes] = {}, acc_h[kLanes] = {}, acc_c[kLanes] = {};
+    const int x0 = col - half, y0 = row - half;
+    const int blocks = T / kLanes * kLanes;
+    for (int r = 0; r < T; ++r) {
+      const float* mo = at(occ, x0, y0 + r);
+      const float* mh = at(hgt, x0, y0 + r);
+      const float* to = t.tau_o.data() + static_cast<size_t>(r) * T;
+      const float* th = t.tau_h.data() + static_cast<size_t>(r) * T;
+      int k = 0;
+      for (; k < blocks; k += kLanes)
+        for (int q = 0; q < kLanes; ++q) {
+          acc_o[q] += std::abs(to[k + q] - mo[k + q]);
+          acc_h[q] += std::abs(th[k + q] - mh[k + q]);
+        }
+      for (; k < T; ++k) {
+        acc_o[0] += std::abs(to[k] - mo[k]);
+        acc_h[0] += std::abs(th[k] - mh[k]);
+      }
+      if (claims) {
+        const float* mc = at(claim, x0, y0 + r);
+        const float* g = gauss.data() + static_cast<size_t>(r) * T;
+        k = 0;
+        for (; k < blocks; k += kLanes)
+          for (int q = 0; q < kLanes; ++q) acc_c[q] += mc[k + q] * g[k + q];
+        for (; k < T; ++k) acc_c[0] += mc[k] * g[k];
+      }
+    }
+    double so = 0, sh = 0, sc = 0;
+    for (int q = 0; q < kLanes; ++q) {
+      so += acc_o[q];
+      sh += acc_h[q];
+      sc += acc_c[q];
+    }
+    double s = 0;
+    if (p.w_height > 0) s += t.sum_h > 0 ? p.w_height * sh / t.sum_h : p.w_height;
+    if (p.w_occupancy > 0) s += t.sum_o > 0 ? p.w_occupancy * so / t.sum_o : p.w_occupancy;
+    s += p.beta * std::hypot(col - pred.x(), row - pred.y()) * grid.cell;
+    if (claims && t.core_o > 0) s += p.alpha * sc / t.core_o;
+    return s;
+  }
+
+  // Gaussian-weighted centre of mass of theta_sm near `c` (cells), a few mean-shift steps.
+  Eigen::Vector2d centre_of_mass(Eigen::Vector2d c) const {
+    const double s = p.core_sigma / grid.cell;
+    const int rad = std::min(half, static_cast<int>(std::ceil(2.5 * s)));
+    for (int it = 0; it < 4; ++it) {
+      const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+      if (!window_ok(ci, cj)) break;
+      double w = 0, wx = 0, wy = 0;
+      for (int dj = -rad; dj <= rad; ++dj) {
+        const float* o = at(occ, ci - rad, cj + dj);
+        for (int di = -rad; di <= rad; ++di) {
+          const double v = o[di + rad];
+          if (v <= 0) continue;
+          const double ex = ci + di - c.x(), ey = cj + dj - c.y();
+          const double g = v * std::exp(-0.5 * (ex * ex + ey * ey) / (s * s));
+          w += g;
+          wx += g * (ci + di);
+          wy += g * (cj + dj);
+        }
+      }
+      if (w <= 0) break;
+      const Eigen::Vector2d n(wx / w, wy / w);
+      // Stay where a whole template window can be cut.
+      if (!window_ok(static_cast<int>(std::lround(n.x())), static_cast<int>(std::lround(n.y())))) break;
+      const bool done = (n - c).norm() < 0.05;
+      c = n;
+      if (done) break;
+    }
+    return c;
+  }
+
+  // Highest masked cell within height_radius of `c`.
+  double height_near(const Eigen::Vector2d& c) const {
+    const int rad = std::min(half, static_cast<int>(std::ceil(p.height_radius / grid.cell)));
+    const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+    double best = 0;
+    for (int dj = -rad; dj <= rad; ++dj) {
+      if (cj + dj < -pad || cj + dj >= grid.rows + pad) continue;
+      for (int di = -rad; di <= rad; ++di) {
+        if (di * di + dj * dj > rad * rad || ci + di < -pad || ci + di >= grid.cols + pad) continue;
+        best = std::max(best, static_cast<double>(*at(hgt, ci + di, cj + dj)));
+      }
+    }
+    return best;
+  }
+
+  // Map-frame offset from the centre of mass of an object's visible surface (at map point m) to
+  // its centre: away from the camera, at most half its width.
+  Eigen::Vector2d surface_offset(const Eigen::Vector2d& m, double width) const {
+    const double off = std::min(p.visible_surface_offset, 0.5 * std::max(0.0, width));
+    const Eigen::Vector2d d = m - camera;
+    const double n = d.norm();
+    return n > 1e-9 && off > 0 ? Eigen::Vector2d(d / n * off) : Eigen::Vector2d::Zero();
+  }
+  // Cell where the track's templates are centred, from its state.
+  Eigen::Vector2d template_cell(const Trk& t) const {
+    const Eigen::Vector2d s = t.x.head<2>();
+    const Eigen::Vector2d m = s - surface_offset(s, t.x(5));
+    return grid.to_cell(m.x(), m.y());
+  }
+
+  // Width of the blob at `c`: the blob under the centre, or the strongest one near it; the
+  // occupancy-weighted extent (see weighted_extent) of its cells within the template window.
+  // Negative when no blob is there.
+  double width_near(const Eigen::Vector2d& c) const {
+    const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+    int label = label_at(ci, cj);
+    if (!label) {
+      const int rad = static_cast<int>(std::ceil(p.core_sigma / grid.cell));
+      double best = 0;
+      for (int dj = -rad; dj <= rad; ++dj)
+        for (int di = -rad; di <= rad; ++di) {
+          const int l = label_at(ci + di, cj + dj);
+          if (!l) continue;
+          const double v = *at(occ, ci + di, cj + dj);
+          if (v > best) {
+            best = v;
+            label = l;
+          }
+        }
+    }
+    if (!label) return -1;
+    double w = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+    for (int dj = -half; dj < T - half; ++dj)
+      for (int di = -half; di < T - half; ++di) {
+        if (label_at(ci + di, cj + dj) != label) continue;
+        const double v = *at(occ, ci + di, cj + dj), x = di, y = dj;
+        w += v;
+        sx += v * x;
+        sy += v * y;
+        sxx += v * x * x;
+        sxy += v * x * y;
+        syy += v * y * y;
+      }
+    if (w <= 0) return -1;
+    return weighted_extent(w, sx, sy, sxx, sxy, syy, ci + sx / w, cj + sy / w);
+  }
+
+  // Extent (m) across the camera's line of sight of a weighted cell distribution centred on cell
+  // (cx, cy): sqrt(12 variance), the smoothing's variance removed, plus one cell. Across, because
+  // depth errors smear a blob along the line of sight, and that side is the one the camera sees.
+  double weighted_extent(double w, double sx, double sy, double sxx, double sxy, double syy, double cx,
+                         double cy) const {
+    const double mx = sx / w, my = sy / w;
+    const double a = sxx / w - mx * mx, b = sxy / w - mx * my, c = syy / w - my * my;
+    Eigen::Vector2d d = grid.to_map(cx, cy) - camera;
+    const double n = d.norm();
+    double var;
+    if (n > 1e-6) {
+      d /= n;
+      const Eigen::Vector2d q(-d.y(), d.x());  // across the line of sight
+      var = a * q.x() * q.x() + 2 * b * q.x() * q.y() + c * q.y() * q.y();
+    } else {
+      var = 0.5 * (a + c) + std::sqrt(std::max(0.0, 0.25 * (a - c) * (a - c) + b * b));
+    }
+    return (std::sqrt(12.0 * std::max(0.0, var - smoothing * smoothing)) + 1.0) * grid.cell;
+  }
+
+  // Cuts the templates centred on cell `c` and blends them in at `rate`.
+  void cut_templates(Trk& t, const Eigen::Vector2d& c, double rate) {
+    const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+    const size_t n = static_cast<size_t>(T) * T;
+    if (t.tau_o.size() != n) {
+      t.tau_o.assign(n, 0.0f);
+      t.tau_h.assign(n, 0.0f);
+      rate = 1.0;
+    }
+    const float a = static_cast<float>(rate), b = static_cast<float>(1.0 - rate);
+    double so = 0, sh = 0, sc = 0;
+    for (int r = 0; r < T; ++r) {
+      const float* mo = at(occ, ci - half, cj - half + r);
+      const float* mh = at(hgt, ci - half, cj - half + r);
+      float* to = t.tau_o.data() + static_cast<size_t>(r) * T;
+      float* th = t.tau_h.data() + static_cast<size_t>(r) * T;
+      const float* g = gauss.data() + static_cast<size_t>(r) * T;
+      for (int k = 0; k < T; ++k) {
+        to[k] = b * to[k] + a * mo[k];
+        th[k] = b * th[k] + a * mh[k];
+        so += to[k];
+        sh += th[k];
+        sc += to[k] * g[k];
+      }
+    }
+    t.sum_o = so;
+    t.sum_h = sh;
+    t.core_o = sc;
+  }
+
+  // Adds the occupancy near the object at cell `c` to the claims of this frame.
+  void add_claim(const Eigen::Vector2d& c) {
+    const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+    if (!window_ok(ci, cj)) return;
+    for (int r = 0; r < T; ++r) {
+      const float* o = at(occ, ci - half, cj - half + r);
+      float* cl = at(claim, ci - half, cj - half + r);
+      const float* g = gauss.data() + static_cast<size_t>(r) * T;
+      for (int k = 0; k < T; ++k) cl[k] += o[k] * g[k];
+    }
+    claimed.emplace_back(ci - half + pad, cj - half + pad, T, T);
+  }
+
+  void clear_claims() {
+    for (const cv::Rect& r : claimed) claim(r).setTo(0);
+    claimed.clear();
+  }
+
+  void predict(Trk& t, double dt) {
+    if (dt <= 0) return;
+    Mat6 F = Mat6::Identity();
+    F(0, 2) = F(1, 3) = dt;
+    const double q = p.accel_noise * p.accel_noise;
+    Mat6 Q = Mat6::Zero();
+    for (int a = 0; a < 2; ++a) {
+      Q(a, a) = q * dt * dt * dt * dt / 4;
+      Q(a, a + 2) = Q(a + 2, a) = q * dt * dt * dt / 2;
+      Q(a + 2, a + 2) = q * dt * dt;
+    }
+    Q(4, 4) = p.height_noise * p.height_noise * dt;
+    Q(5, 5) = p.width_noise * p.width_noise * dt;
+    t.x = F * t.x;
+    t.P = F * t.P * F.transpose() + Q;
+  }
+
+  // Position-only update (a partly hidden object: its shape is not measured); false when the
+  // measurement fails the gate.
+  bool correct_position(Trk& t, const Eigen::Vector2d& z, double sigma) {
+    Eigen::Matrix<double, 2, 6> H = Eigen::Matrix<double, 2, 6>::Zero();
+    H(0, 0) = H(1, 1) = 1;
+    const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * sigma * sigma;
+    const Eigen::Vector2d y = z - H * t.x;
+    const Eigen::Matrix2d S = H * t.P * H.transpose() + R;
+    if (p.gate > 0 && y.dot(S.inverse() * y) > p.gate) return false;
+    const Eigen::Matrix<double, 6, 2> K = t.P * H.transpose() * S.inverse();
+    t.x += K * y;
+    const Mat6 I_KH = Mat6::Identity() - K * H;
+    t.P = I_KH * t.P * I_KH.transpose() + K * R * K.transpose();
+    return true;
+  }
+
+  // Gate on the measured position and height: Mahalanobis distance of the innovation.
+  bool passes_gate(const Trk& t, const Vec4& z) const {
+    if (p.gate <= 0) return true;
+    Eigen::Matrix<double, 3, 6> H = Eigen::Matrix<double, 3, 6>::Zero();
+    H(0, 0) = H(1, 1) = H(2, 4) = 1;
+    Eigen::Matrix3d R = Eigen::Matrix3d::Zero();
+    R(0, 0) = R(1, 1) = p.position_noise * p.position_noise;
+    R(2, 2) = p.shape_measurement_noise * p.shape_measurement_noise;
+    const Eigen::Vector3d y = z.head<3>() - H * t.x;
+    const Eigen::Matrix3d S = H * t.P * H.transpose() + R;
+    return y.dot(S.inverse() * y) <= p.gate;
+  }
+
+  void correct(Trk& t, const Vec4& z) {
+    Mat46 H = Mat46::Zero();
+    H(0, 0) = H(1, 1) = H(2, 4) = H(3, 5) = 1;
+    Mat4 R = Mat4::Zero();
+    R(0, 0) = R(1, 1) = p.position_noise * p.position_noise;
+    R(2, 2) = R(3, 3) = p.shape_measurement_noise * p.shape_measurement_noise;
+    const Vec4 y = z - H * t.x;
+    const Mat4 S = H * t.P * H.transpose() + R;
+    const Eigen::Matrix<double, 6, 4> K = t.P * H.transpose() * S.inverse();
+    t.x += K * y;
+    const Mat6 I_KH = Mat6::Identity() - K * H;
+    t.P = I_KH * t.P * I_KH.transpose() + K * R * K.transpose();  // Joseph form: stays symmetric
+  }
+
+  void vote(Trk& t) {
+    const TrackClass c = classify_track(t.x(4), t.x(5), p.classes);
+    for (double& v : t.votes) v *= 0.97;
+    t.votes[static_cast<int>(c)] += 1.0;
+    int best = 0;
+    for (int k = 1; k < 4; ++k)
+      if (t.votes[k] > t.votes[best]) best = k;
+    t.cls = static_cast<TrackClass>(best);
+  }
+
+  // Measures the object at cell `c` (centre of mass, height, width) and updates the track.
+  // False (and nothing changed) when the measurement fails the gate.
+  bool measure_and_update(Trk& t, const Eigen::Vector2d& start, double rate, bool gated) {
+    const Eigen::Vector2d c = centre_of_mass(start);
+    const Eigen::Vector2d m = grid.to_map(c.x(), c.y());
+    double w = width_near(c);
+    if (w < 0) w = t.x(5);
+    const Eigen::Vector2d centre = m + surface_offset(m, w);
+    const Vec4 z(centre.x(), centre.y(), height_near(c), w);
+    if (gated && t.confirmed && !passes_gate(t, z)) return false;
+    correct(t, z);
+    cut_templates(t, c, rate);
+    add_claim(c);
+    t.updated = true;
+    t.missed = false;
+    ++t.hits;
+    t.misses = 0;
+    t.occluded = 0;
+    if (t.hits >= p.min_hits) t.confirmed = true;
+    vote(t);
+    return true;
+  }
+
+  void match(Trk& t) {
+    const Eigen::Vector2d pred = template_cell(t);
+    const int pc = static_cast<int>(std::lround(pred.x())), pr = static_cast<int>(std::lround(pred.y()));
+    const double sigma = std::sqrt(std::max(t.P(0, 0), t.P(1, 1)));
+    const double radius = std::clamp(p.search_sigmas * sigma, p.search_min, p.search_max);
+    const int rc = std::max(1, static_cast<int>(std::ceil(radius / grid.cell)));
+    const int step = rc > 6 ? 2 : 1;
+    const bool claims = !claimed.empty() && p.alpha > 0;
+    double best = std::numeric_limits<double>::infinity();
+    int bc = pc, br = pr;
+    auto consider = [&](int c, int r) {
+      if (!window_ok(c, r)) return;
+      const double s = score_at(t, c, r, pred, claims);
+      if (s < best) {
+        best = s;
+        bc = c;
+        br = r;
+      }
+    };
+    for (int dr = -rc; dr <= rc; dr += step)
+      for (int dc = -rc; dc <= rc; dc += step)
+        if (dc * dc + dr * dr <= rc * rc + 1) consider(pc + dc, pr + dr);
+    if (step > 1) {
+      const int c0 = bc, r0 = br;
+      for (int dr = -step; dr <= step; ++dr)
+        for (int dc = -step; dc <= step; ++dc)
+          if (dc || dr) consider(c0 + dc, r0 + dr);
+    }
+    t.score = best;
+    // An occluded object whose templates match only in part is measured loosely, position only:
+    // the visible part's shape would drag its shape and templates.
+    const bool partial = best >= p.occluded_match * p.track_threshold && t.confirmed && occluded(t);
+    bool ok = false;
+    if (best < p.track_threshold && !partial) {
+      ok = measure_and_update(t, Eigen::Vector2d(bc, br), p.template_rate, true);
+      if (ok) t.confidence = std::clamp(1.0 - 0.5 * best / p.track_threshold, 0.0, 1.0);
+    } else if (best < p.track_threshold) {
+      const Eigen::Vector2d c = centre_of_mass(Eigen::Vector2d(bc, br));
+      const Eigen::Vector2d m = grid.to_map(c.x(), c.y());
+      ok = correct_position(t, m + surface_offset(m, t.x(5)), p.occluded_position_noise);
+      if (ok) {
+        add_claim(c);
+        t.updated = true;
+        t.missed = false;
+        t.misses = 0;
+        t.confidence = 0.5 * std::clamp(1.0 - 0.5 * best / p.track_threshold, 0.0, 1.0);
+      }
+    }
+    if (!ok) {
+      t.missed = true;  // missing or occluded: decided once every track is matched
+      t.confidence *= 0.8;
+    }
+  }
+
+  // True when a track seen this frame stands between the camera and t, across its line of sight,
+  // and tall enough to hide at least half of t's height (a bag in front of a person does not).
+  bool occluded(const Trk& t) const {
+    const Eigen::Vector2d s = t.x.head<2>() - camera;
+    const double range = s.norm();
+    if (range < 1e-6) return false;
+    const Eigen::Vector2d u = s / range;
+    for (const Trk& o : tracks) {
+      // Occluders: confirmed tracks matched this frame, or matched last frame and not yet processed.
+      if (&o == &t || !o.confirmed || o.missed || o.misses > 0 || o.occluded > 0) continue;
+      const Eigen::Vector2d q = o.x.head<2>() - camera;
+      const double along = q.dot(u);
+      const double across = std::abs(q.x() * u.y() - q.y() * u.x());
+      if (!(along > 0.05 && along < range - 0.1 && across < 0.5 * (o.x(5) + t.x(5)) + 0.1)) continue;
+      // Height on t up to which the line from the camera over o's top is blocked.
+      const double hidden = camera_height + (o.x(4) - camera_height) * range / along;
+      if (hidden >= 0.5 * t.x(4)) return true;
+    }
+    return false;
+  }
+
+  void count_misses(double dt) {
+    const double decay = p.coast_velocity_decay > 0 ? std::exp(-dt / p.coast_velocity_decay) : 1.0;
+    for (Trk& t : tracks) {
+      if (!t.missed || t.updated) continue;
+      // Coasting: a slow track, or a bag (bags do not walk), is held still: its apparent motion
+      // is mostly a transient of blobs merging, splitting or being hidden; a person or a robot
+      // keeps its velocity, optionally decaying.
+      if (t.x.segment<2>(2).norm() < p.coast_hold_speed || t.cls == TrackClass::kBag) t.x.segment<2>(2).setZero();
+      t.x(2) *= decay;
+      t.x(3) *= decay;
+      if (t.confirmed && occluded(t))
+        ++t.occluded;
+      else
+        ++t.misses;
+    }
+  }
+
+  void births() {
+    const double cell2 = grid.cell * grid.cell;
+    for (size_t k = 1; k < blobs.size(); ++k) {
+      const Blob& b = blobs[k];
+      if (b.mass * cell2 < p.birth_min_area || b.max_height < p.birth_min_height) continue;
+      const Eigen::Vector2d bc(b.cx, b.cy);
+      const Eigen::Vector2d bm_surface = grid.to_map(b.cx, b.cy);
+      const double bw = weighted_extent(b.mass, b.cx * b.mass, b.cy * b.mass, b.sxx, b.sxy, b.syy, b.cx, b.cy);
+      const Eigen::Vector2d bm = bm_surface + surface_offset(bm_surface, bw);
+      bool explained = false;
+      for (const Trk& t : tracks) {
+        if (!t.updated) continue;
+        const Eigen::Vector2d tc = template_cell(t);
+        if ((t.x.head<2>() - bm).norm() < p.explain_distance ||
+            label_at(static_cast<int>(std::lround(tc.x())), static_cast<int>(std::lround(tc.y()))) ==
+                static_cast<int>(k)) {
+          explained = true;
+          break;
+        }
+      }
+      if (explained) continue;
+      // A coasting track near it takes it back.
+      Trk* nearest = nullptr;
+      double nd = std::numeric_limits<double>::infinity();
+      for (Trk& t : tracks) {
+        if (t.updated) continue;
+        const double d = (t.x.head<2>() - bm).norm();
+        // The reach grows with the prediction's uncertainty while the track coasts.
+        const double reach = std::max(p.reacquire_distance,
+                                      std::min(p.reacquire_max, 3.0 * std::sqrt(std::max(t.P(0, 0), t.P(1, 1)))));
+        if (d < reach && d < nd) {
+          nd = d;
+          nearest = &t;
+        }
+      }
+      if (nearest && nearest->confirmed && occluded(*nearest)) continue;  // the visible part of a hidden object
+      if (nearest) {
+        nearest->tau_o.clear();  // shape changed beyond the templates: cut them afresh
+        measure_and_update(*nearest, bc, 1.0, false);
+        nearest->confidence = 0.5;
+        continue;
+      }
+      Trk t;
+      t.id = next_id++;
+      t.x << bm.x(), bm.y(), 0, 0, b.max_height, bw;
+      const double pv = p.position_noise * p.position_noise, vv = p.initial_velocity_sigma * p.initial_velocity_sigma,
+                   sv = p.shape_measurement_noise * p.shape_measurement_noise;
+      t.P = Vec6(pv, pv, vv, vv, sv, sv).asDiagonal();
+      cut_templates(t, bc, 1.0);
+      add_claim(bc);
+      t.hits = 1;
+      t.confirmed = p.min_hits <= 1;
+      t.updated = true;
+      t.born = true;
+      t.confidence = 0.5;
+      vote(t);
+      tracks.push_back(std::move(t));
+    }
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+
+PlanViewTracker::PlanViewTracker(const PlanViewGrid& grid, const PlanViewTrackerParams& params)
+    : grid_(grid), params_(params), impl_(std::make_unique<Impl>(grid, params)) {}
+PlanViewTracker::PlanViewTracker(PlanViewTracker&&) noexcept = default;
+PlanViewTracker& PlanViewTracker::operator=(PlanViewTracker&&) noexcept = default;
+PlanViewTracker::~PlanViewTracker() = default;
+
+Result<PlanViewTracker> PlanViewTracker::create(const PlanViewGrid& grid, const PlanViewTrackerParams& params) {
+  if (Status s = params.validate(); !s) return s;
+  if (grid.cols <= 0 || grid.rows <= 0 || !(grid.cell > 0))
+    return param_error("grid", "an empty plan-view grid (" + grid_str(grid) + ")");
+  return PlanViewTracker(grid, params);
+}
+
+void PlanViewTracker::reset() { impl_->tracks.clear(); }
+
+int PlanViewTracker::live_tracks() const { return static_cast<int>(impl_->tracks.size()); }
+
+std::vector<std::pair<int, double>> PlanViewTracker::last_scores() const {
+  std::vector<std::pair<int, double>> out;
+  for (const auto& t : impl_->tracks)
+    out.emplace_back(t.id, t.born ? std::numeric_limits<double>::quiet_NaN() : t.score);
+  return out;
+}
+
+Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t stamp_ns) {
+  Impl& m = *impl_;
+  if (!(view.grid == grid_) || view.occupancy_smoothed.rows != grid_.rows ||
+      view.occupancy_smoothed.cols != grid_.cols || view.height_masked.size() != view.occupancy_smoothed.size() ||
+      view.mask.size() != view.occupancy_smoothed.size() || view.occupancy_smoothed.type() != CV_32F ||
+      view.height_masked.type() != CV_32F || view.mask.type() != CV_8U) {
+    return bad_input("", 0, "plan_view",
+                     "plan view of " + grid_str(view.grid) + " (maps " + std::to_string(view.occupancy_smoothed.cols) +
+                         "x" + std::to_string(view.occupancy_smoothed.rows) + "), but the tracker is for " +
+                         grid_str(grid_));
+  }
+  if (m.have_stamp && stamp_ns <= m.last_stamp) {
+    return bad_input("", 0, "stamp_ns",
+                     "frame stamped " + std::to_string(stamp_ns) + " ns is not after the previous frame (" +
+                         std::to_string(m.last_stamp) + " ns): frames must come in increasing time order");
+  }
+  const double dt = m.have_stamp ? (stamp_ns - m.last_stamp) * 1e-9 : 0.0;
+  m.have_stamp = true;
+  m.last_stamp = stamp_ns;
+
+  m.camera = view.camera_xy;
+  m.camera_height = view.camera_height;
+  m.smoothing = view.smoothing;
+  m.copy_maps(view);
+  m.find_blobs(view);
+  m.clear_claims();
+
+  // Predict; tracks whose prediction left the grid are gone.
+  for (auto& t : m.tracks) {
+    m.predict(t, dt);
+    t.updated = t.born = t.missed = false;
+  }
+  std::erase_if(m.tracks, [&](const Impl::Trk& t) { return !grid_.contains(t.x(0), t.x(1)); });
+
+  // Correspondence, oldest and surest first.
+  std::vector<size_t> order(m.tracks.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const auto &ta = m.tracks[a], &tb = m.tracks[b];
+    if (ta.confirmed != tb.confirmed) return ta.confirmed;
+    if (ta.hits != tb.hits) return ta.hits > tb.hits;
+    return ta.id < tb.id;
+  });
+  for (size_t i : order) m.match(m.tracks[i]);
+
+  m.births();
+  m.count_misses(dt);
+
+  std::erase_if(m.tracks, [&](const Impl::Trk& t) {
+    return (!t.confirmed && t.misses > 0) || t.misses >= params_.max_missed || t.occluded > params_.max_occluded;
+  });
+
+  std::vector<Track> out;
+  for (const auto& t : m.tracks) {
+    if (!t.confirmed) continue;
+    Track r;
+    r.stamp_ns = stamp_ns;
+    r.camera = params_.camera;
+    r.id = t.id;
+    r.cls = t.cls;
+    r.x = t.x(0);
+    r.y = t.x(1);
+    r.vx = t.x(2);
+    r.vy = t.x(3);
+    r.height = t.x(4);
+    r.width = t.x(5);
+    r.confidence = t.confidence;
+    out.push_back(std::move(r));
+  }
+  std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Result<PlanViewPipeline> PlanViewPipeline::create(const StereoCameraModel& camera, const PlanViewParams& plan,
+                                                  const PlanViewTrackerParams& tracking) {
+  auto b = PlanViewBuilder::create(camera, plan);
+  if (!b) return b.error();
+  auto t = PlanViewTracker::create(b->grid(), tracking);
+  if (!t) return t.error();
+  return PlanViewPipeline(std::move(*b), std::move(*t));
+}
+
+Result<std::vector<Track>> PlanViewPipeline::process(const cv::Mat& foreground, const cv::Mat& depth,
+                                                     int64_t stamp_ns) {
+  if (Status s = builder_.build(foreground, depth, &view_); !s) return s;
+  return tracker_.update(view_, stamp_ns);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+cv::Point2d plan_view_pixel(const PlanViewGrid& grid, double x, double y, int scale) {
+  const Eigen::Vector2d c = grid.to_cell(x, y);
+  return {(c.x() + 0.5) * scale, (grid.rows - 0.5 - c.y()) * scale};
+}
+
+namespace {
+
+cv::Scalar class_colour(TrackClass c) {
+  switch (c) {
+    case TrackClass::kPerson: return {80, 220, 80};
+    case TrackClass::kBag: return {0, 200, 255};
+    case TrackClass::kRobot: return {255, 200, 0};
+    case TrackClass::kUnknown: break;
+  }
+  return {200, 200, 200};
+}
+
+// Colour image of a map scaled to [0, vmax], empty cells black, +y up.
+cv::Mat colourise(const cv::Mat& map, double vmax, int scale) {
+  cv::Mat u8;
+  map.convertTo(u8, CV_8U, vmax > 0 ? 255.0 / vmax : 0.0);
+  cv::Mat colour;
+  cv::applyColorMap(u8, colour, cv::COLORMAP_TURBO);
+  colour.setTo(cv::Scalar::all(0), map <= 0);
+  cv::flip(colour, colour, 0);
+  if (scale > 1) cv::resize(colour, colour, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  return colour;
+}
+
+void overlay(cv::Mat& img, const PlanView& v, const std::vector<Track>& tracks, const PlanViewDrawOptions& o) {
+  const int s = std::max(1, o.scale);
+  if (o.draw_camera && v.grid.contains(v.camera_xy.x(), v.camera_xy.y())) {
+    const cv::Point2d c = plan_view_pixel(v.grid, v.camera_xy.x(), v.camera_xy.y(), s);
+    cv::drawMarker(img, c, {255, 255, 255}, cv::MARKER_TRIANGLE_UP, 12, 2);
+  }
+  if (!o.draw_tracks) return;
+  for (const Track& t : tracks) {
+    const cv::Scalar col = class_colour(t.cls);
+    const cv::Point2d c = plan_view_pixel(v.grid, t.x, t.y, s);
+    const int r = std::max(4, static_cast<int>(std::lround(std::max(t.width, 0.3) / 2 / v.grid.cell * s)));
+    cv::circle(img, c, r, col, 2, cv::LINE_AA);
+    const cv::Point2d e = plan_view_pixel(v.grid, t.x + t.vx, t.y + t.vy, s);
+    cv::arrowedLine(img, c, e, col, 1, cv::LINE_AA, 0, 0.2);
+    char label[64];
+    std::snprintf(label, sizeof label, "%d %s %.2fm", t.id, std::string(to_string(t.cls)).c_str(), t.height);
+    cv::putText(img, label, c + cv::Point2d(r + 2, -r), cv::FONT_HERSHEY_SIMPLEX, 0.4, col, 1, cv::LINE_AA);
+  }
+}
+
+}  // namespace
+
+cv::Mat draw_occupancy_map(const PlanView& v, const std::vector<Track>& tracks, const PlanViewDrawOptions& o) {
+  if (v.occupancy_smoothed.empty()) return {};
+  double vmax = o.occupancy_max;
+  if (vmax <= 0) {
+    // The 99th percentile of the non-empty cells, so one dense cell does not darken the rest.
+    std::vector<float> vals;
+    if (!v.active.empty()) {
+      const cv::Mat roi = v.occupancy_smoothed(v.active);
+      for (int r = 0; r < roi.rows; ++r) {
+        const float* p = roi.ptr<float>(r);
+        for (int k = 0; k < roi.cols; ++k)
+          if (p[k] > 0) vals.push_back(p[k]);
+      }
+    }
+    if (!vals.empty()) {
+      const size_t i = std::min(vals.size() - 1, static_cast<size_t>(0.99 * vals.size()));
+      std::nth_element(vals.begin(), vals.begin() + i, vals.end());
+      vmax = vals[i];
+    }
+    if (vmax <= 0) vmax = 1;
+  }
+  cv::Mat img = colourise(v.occupancy_smoothed, vmax, std::max(1, o.scale));
+  overlay(img, v, tracks, o);
+  return img;
+}
+
+cv::Mat draw_height_map(const PlanView& v, const std::vector<Track>& tracks, const PlanViewDrawOptions& o) {
+  if (v.height_masked.empty()) return {};
+  cv::Mat img = colourise(v.height_masked, o.height_max, std::max(1, o.scale));
+  overlay(img, v, tracks, o);
+  return img;
+}
+
+cv::Mat draw_plan_view(const PlanView& v, const std::vector<Track>& tracks, const PlanViewDrawOptions& o) {
+  const cv::Mat a = draw_occupancy_map(v, tracks, o), b = draw_height_map(v, tracks, o);
+  if (a.empty() || b.empty()) return {};
+  constexpr int kBar = 18, kGap = 4;
+  cv::Mat out(a.rows + kBar, a.cols + kGap + b.cols, CV_8UC3, cv::Scalar::all(40));
+  a.copyTo(out(cv::Rect(0, kBar, a.cols, a.rows)));
+  b.copyTo(out(cv::Rect(a.cols + kGap, kBar, b.cols, b.rows)));
+  cv::putText(out, "occupancy", {4, 13}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {255, 255, 255}, 1, cv::LINE_AA);
+  cv::putText(out, "height", {a.cols + kGap + 4, 13}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {255, 255, 255}, 1, cv::LINE_AA);
+  return out;
+}
+
+}  // namespace vigil::vision
