@@ -89,6 +89,48 @@ TEST(PlanViewSystem, TracksThePersonAndTheBagFromSgbmDepth) {
   EXPECT_LE(ids_on_person.size(), 2u);
 }
 
+// scenarios/dis_occlusion.yaml: B walks towards the camera behind A (who stands nearer), waits
+// and walks back; with the renderer's depth both keep one identity each through the occlusion.
+TEST(PlanViewSystem, IdentitiesSurviveAPersonWalkingBehindAnother) {
+  Scenario sc = load("dis_occlusion");
+  auto src = render::RenderedStereoSource::open(sc, "cam_corridor");
+  ASSERT_TRUE(src.ok()) << src.error().str();
+  PlanViewSystemParams sp;
+  sp.tracking.camera = "cam_corridor";
+  auto sys = PlanViewSystem::create(*(*src)->camera_model(), sp);
+  ASSERT_TRUE(sys.ok()) << sys.error().str();
+  StereoFrame f;
+  std::map<std::string, std::map<int, int>> ids;  // person -> track id -> frames
+  std::map<std::string, int> in_range, matched;
+  while (true) {
+    auto more = (*src)->next(&f);
+    ASSERT_TRUE(more.ok()) << more.error().str();
+    if (!*more) break;
+    auto tracks = sys->process(f);
+    ASSERT_TRUE(tracks.ok()) << tracks.error().str();
+    if (f.stamp_ns < 2'000'000'000) continue;  // the background is still being learnt
+    for (const auto& p : (*src)->world().people()) {
+      if (std::hypot(p.pose.x - 27.0, p.pose.y - 3.9) > 8.0) continue;
+      ++in_range[p.spec.id];
+      for (const auto& t : *tracks) {
+        if (std::hypot(t.x - p.pose.x, t.y - p.pose.y) < 0.4) {
+          ++matched[p.spec.id];
+          ++ids[p.spec.id][t.id];
+          break;
+        }
+      }
+    }
+  }
+  for (const char* who : {"A", "B"}) {
+    ASSERT_GT(in_range[who], 60) << who;
+    EXPECT_GT(static_cast<double>(matched[who]) / in_range[who], 0.9) << who << ": " << matched[who] << " of " << in_range[who];
+    EXPECT_EQ(ids[who].size(), 1u) << who << " was given more than one identity";
+  }
+  ASSERT_FALSE(ids["A"].empty());
+  ASSERT_FALSE(ids["B"].empty());
+  EXPECT_NE(ids["A"].begin()->first, ids["B"].begin()->first);
+}
+
 TEST(PlanViewSystem, FramesWithoutDepthOfAnotherSizeOrOutOfOrderAreErrors) {
   Scenario sc = load("dis_left_bag");
   render::RenderedSourceOptions ro;
