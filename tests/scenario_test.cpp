@@ -442,6 +442,9 @@ TEST_F(ScenarioTest, RangesDurationsRatesAndNonFiniteNumbers) {
   expect_error(t, line_of(t, ".nan"), "cameras[0].yaw_deg", "finite");
   t = replace_once(kGood, "    cy: 120\n", "    cy: 120\n    rate_hz: -1\n");
   expect_error(t, line_of(t, "rate_hz: -1"), "cameras[1].rate_hz", "greater than 0");
+  // A camera cannot tick faster than the world steps: frames are taken after physics steps.
+  t = replace_once(kGood, "    cy: 120\n", "    cy: 120\n    rate_hz: 60\n");
+  expect_error(t, line_of(t, "rate_hz: 60"), "cameras[1].rate_hz", "must not exceed physics_rate_hz");
   t = replace_once(kGood, "samples: 181", "samples: 1e300");
   expect_error(t, line_of(t, "1e300"), "robots[0].ranger.samples", "between 1 and 100000");
   t = replace_once(kGood, "range_max: 10,", "range_max: 10, range_min: 12,");

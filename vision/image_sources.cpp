@@ -421,15 +421,7 @@ Result<bool> StereoSequenceSource::next(StereoFrame* frame) {
       return e;
     }
     frame->disparity = *d;
-    if (model_) {
-      // Depth along the optical axis, Z = fx * b / d, where the disparity is valid.
-      const float fb = static_cast<float>(model_->intrinsics().fx * model_->baseline());
-      frame->depth = cv::Mat::zeros(frame->disparity.size(), CV_32F);
-      const cv::Mat valid = frame->disparity > 0;
-      cv::Mat depth;
-      cv::divide(fb, frame->disparity, depth);
-      depth.copyTo(frame->depth, valid);
-    }
+    if (model_) frame->depth = depth_from_disparity(frame->disparity, *model_);
   }
   ++index_;
   return true;

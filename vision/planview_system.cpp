@@ -8,12 +8,21 @@
 
 namespace vigil::vision {
 
+Status DepthEdgeFilterParams::validate() const {
+  if (edge_radius < 0 || edge_radius > 50) return bad_input("", 0, "edge_radius", "must be 0 to 50 px");
+  if (!(edge_tolerance_px >= 0) || !std::isfinite(edge_tolerance_px))
+    return bad_input("", 0, "edge_tolerance_px", "must be >= 0");
+  if (!(edge_tolerance_m >= 0) || !std::isfinite(edge_tolerance_m)) return bad_input("", 0, "edge_tolerance_m", "must be >= 0");
+  return Status::Ok();
+}
+
 Result<PlanViewSystem> PlanViewSystem::create(const StereoCameraModel& camera, const PlanViewSystemParams& params) {
+  if (Status s = params.depth_filter.validate(); !s) return s.error();
   auto bg = YuvdBackground::create(params.background);
   if (!bg) return bg.error();
   auto pipeline = PlanViewPipeline::create(camera, params.plan, params.tracking);
   if (!pipeline) return pipeline.error();
-  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline));
+  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter);
 }
 
 Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
@@ -30,7 +39,35 @@ Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
                      "frame " + std::to_string(frame.index) +
                          " has no depth: the plan-view system needs a stereo source with disparity (disparity=sgbm)");
   if (Status s = background_.apply(frame.left, frame.depth, foreground_); !s) return s.error();
-  return pipeline_.process(foreground_, frame.depth, frame.stamp_ns);
+  if (filter_.edge_radius <= 0 || frame.depth.type() != CV_32F || frame.depth.size() != foreground_.size())
+    return pipeline_.process(foreground_, frame.depth, frame.stamp_ns);
+  filter_depth_edges(frame.depth);
+  return pipeline_.process(plan_mask_, frame.depth, frame.stamp_ns);
+}
+
+void PlanViewSystem::filter_depth_edges(const cv::Mat& depth) {
+  constexpr float kNone = 1e9f;
+  // Nearest valid depth in the window: invalid depths (<= 0, NaN, inf) count as none.
+  near_depth_.create(depth.size(), CV_32F);
+  for (int r = 0; r < depth.rows; ++r) {
+    const float* d = depth.ptr<float>(r);
+    float* o = near_depth_.ptr<float>(r);
+    for (int c = 0; c < depth.cols; ++c) o[c] = d[c] > 0 && d[c] < kNone ? d[c] : kNone;
+  }
+  const int k = 2 * filter_.edge_radius + 1;
+  cv::erode(near_depth_, near_depth_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+  const float inv_fb = static_cast<float>(filter_.edge_tolerance_px / (camera_.intrinsics().fx * camera_.baseline()));
+  const float tol_m = static_cast<float>(filter_.edge_tolerance_m);
+  foreground_.copyTo(plan_mask_);
+  for (int r = 0; r < depth.rows; ++r) {
+    const float* d = depth.ptr<float>(r);
+    const float* n = near_depth_.ptr<float>(r);
+    uint8_t* m = plan_mask_.ptr<uint8_t>(r);
+    for (int c = 0; c < depth.cols; ++c) {
+      if (!m[c] || !(d[c] > 0 && d[c] < kNone)) continue;
+      if (d[c] - n[c] > tol_m + inv_fb * d[c] * d[c]) m[c] = 0;
+    }
+  }
 }
 
 void draw_tracks_on_view(cv::Mat* bgr, const StereoCameraModel& camera, const std::vector<Track>& tracks) {

@@ -18,8 +18,23 @@
 
 namespace vigil::vision {
 
+// Stereo depth at a depth discontinuity (a person's outline against the far background) is a mix
+// of the two surfaces: block matching and the smoothness paths of SGBM give the outline pixels
+// depths in between, which the plan view smears behind the object along the line of sight (and
+// at the far end of that smear the tracker would find a second object). A foreground pixel is
+// therefore left out of the plan view when it lies more than edge_tolerance_px disparity pixels
+// (as a depth, Z^2 / (fx b) * edge_tolerance_px, plus edge_tolerance_m) behind the nearest
+// valid depth within edge_radius pixels: it is not on the near surface. 0 radius = no filter.
+struct DepthEdgeFilterParams {
+  int edge_radius = 0;             // px, half side of the window (0 = off)
+  double edge_tolerance_px = 1.0;  // disparity pixels behind the window's nearest depth
+  double edge_tolerance_m = 0.1;   // plus this (m)
+  Status validate() const;
+};
+
 struct PlanViewSystemParams {
   YuvdBackgroundParams background;
+  DepthEdgeFilterParams depth_filter;
   PlanViewParams plan;
   PlanViewTrackerParams tracking;  // tracking.camera names the tracks' camera
 };
@@ -42,12 +57,16 @@ class PlanViewSystem {
   cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const;
 
  private:
-  PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline)
-      : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)) {}
+  PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df)
+      : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)), filter_(df) {}
+  // Drops the foreground pixels that are not on the near surface (see DepthEdgeFilterParams)
+  // from plan_mask_.
+  void filter_depth_edges(const cv::Mat& depth);
   StereoCameraModel camera_;
   YuvdBackground background_;
   PlanViewPipeline pipeline_;
-  cv::Mat foreground_;
+  DepthEdgeFilterParams filter_;
+  cv::Mat foreground_, plan_mask_, near_depth_;
 };
 
 // Draws the tracks on a camera image: the projected box of each track's cylinder (width,

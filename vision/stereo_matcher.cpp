@@ -166,4 +166,13 @@ Result<cv::Mat> StereoMatcher::compute(const cv::Mat& left, const cv::Mat& right
   return disparity;
 }
 
+cv::Mat depth_from_disparity(const cv::Mat& disparity, const StereoCameraModel& camera) {
+  const float fb = static_cast<float>(camera.intrinsics().fx * camera.baseline());
+  cv::Mat depth = cv::Mat::zeros(disparity.size(), CV_32F);
+  cv::Mat z;
+  cv::divide(fb, disparity, z);
+  z.copyTo(depth, disparity > 0);
+  return depth;
+}
+
 }  // namespace vigil::vision

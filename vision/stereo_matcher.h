@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "common/status.h"
+#include "vision/stereo_camera_model.h"
 
 namespace vigil::vision {
 
@@ -44,6 +45,10 @@ struct StereoMatcherParams {
   // Checks every field; the error's key is the field's name.
   Status validate() const;
 };
+
+// Depth along the optical axis (CV_32F metres, a new image) from a disparity image (CV_32F
+// pixels), Z = fx * baseline / d where d > 0, 0 elsewhere.
+cv::Mat depth_from_disparity(const cv::Mat& disparity, const StereoCameraModel& camera);
 
 // Parses "sgbm" or "bm".
 Result<StereoAlgorithm> parse_stereo_algorithm(const std::string& name);

@@ -303,7 +303,10 @@ class ScenarioReader {
       if (!hfov) c.hfov = 60.0 * kDegToRad;
     }
     if (auto x = m.get("baseline")) c.baseline = x->positive(10.0);
-    if (auto x = m.get("rate_hz")) c.rate_hz = x->positive(1000.0);
+    if (auto x = m.get("rate_hz")) {
+      c.rate_hz = x->positive(1000.0);
+      if (c.rate_hz > sc_.physics_rate_hz) x->fail("must not exceed physics_rate_hz (" + fmt(sc_.physics_rate_hz) + ")");
+    }
     if (auto x = m.get("plugin")) {
       c.plugin = x->identifier();
       check_plugin(*x, c.plugin);

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "vision/image_sources.h"
+#include "world/rng.h"
 
 namespace vigil::render {
 
@@ -35,7 +36,7 @@ Result<std::unique_ptr<RenderedStereoSource>> RenderedStereoSource::open(const S
   if (!world) return world.error();
   src->world_ = std::move(*world);
   RendererOptions ro = options.renderer;
-  ro.effects.seed = ro.effects.seed == 1 ? scenario.seed : ro.effects.seed;
+  ro.effects.seed = options.noise_seed.value_or(camera_noise_seed(scenario.seed, camera_id));
   auto renderer = OsmesaRenderer::create(spec->width, spec->height, ro);
   if (!renderer) return renderer.error();
   src->renderer_ = std::move(*renderer);
@@ -77,18 +78,17 @@ std::string RenderedStereoSource::describe() const {
   return buf;
 }
 
+uint64_t camera_noise_seed(uint64_t scenario_seed, const std::string& camera_id) {
+  return Rng::stream(scenario_seed, "camera_noise:" + camera_id).next();
+}
+
 Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
                        vision::StereoFrame* frame) {
   auto d = matcher.compute(frame->left, frame->right);
   if (!d) return d.error();
+  // New images: the frame may share its buffers with another consumer's.
   frame->disparity = *d;
-  frame->depth.create(d->size(), CV_32F);
-  const double fb = model.intrinsics().fx * model.baseline();
-  for (int r = 0; r < d->rows; ++r) {
-    const float* dp = d->ptr<float>(r);
-    float* zp = frame->depth.ptr<float>(r);
-    for (int c = 0; c < d->cols; ++c) zp[c] = dp[c] > 0 ? static_cast<float>(fb / dp[c]) : 0.0f;
-  }
+  frame->depth = vision::depth_from_disparity(*d, model);
   return Status::Ok();
 }
 
@@ -104,7 +104,7 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
   if (!active()) return Status::Ok();
   const Scenario& scenario = world.scenario();
   for (const auto& spec : scenario.cameras) {
-    bool wanted = options_.video;
+    bool wanted = options_.video && !out_dir.empty();
     for (const auto& [id, consumer] : consumers_) wanted = wanted || id.empty() || id == spec.id;
     if (!wanted) continue;
     auto cam = std::make_unique<Camera>();
@@ -112,7 +112,7 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
     cam->model = camera_model(spec);
     cam->scene_options = scene_options_for(world, &spec);
     RendererOptions ro = options_.renderer;
-    if (ro.effects.seed == 1) ro.effects.seed = scenario.seed;
+    ro.effects.seed = camera_noise_seed(scenario.seed, spec.id);
     auto renderer = OsmesaRenderer::create(spec.width, spec.height, ro);
     if (!renderer) return renderer.error();
     cam->renderer = std::move(*renderer);

@@ -38,7 +38,8 @@ namespace vigil::render {
 struct RenderedSourceOptions {
   int64_t max_frames = 0;                              // 0 = until the scenario ends
   std::optional<vision::StereoMatcherParams> matcher;  // set: disparity and depth from this matcher
-  RendererOptions renderer;
+  RendererOptions renderer;  // its effects.seed is replaced by noise_seed
+  std::optional<uint64_t> noise_seed;  // sensor-noise seed; default: from the scenario's seed and the camera id
   WorldOptions world;
 };
 
@@ -70,6 +71,9 @@ class RenderedStereoSource : public vision::FrameSource {
   std::vector<std::string> label_ids_;
 };
 
+// The sensor-noise seed of a camera in a run: a stream of the scenario's seed named by the camera.
+uint64_t camera_noise_seed(uint64_t scenario_seed, const std::string& camera_id);
+
 // Replaces the frame's disparity and depth with `matcher`'s, from its left and right images
 // (invalid disparity gives depth 0).
 Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
@@ -80,7 +84,7 @@ using FrameConsumer = std::function<Status(const CameraSpec&, const vision::Ster
 
 struct CameraRigOptions {
   bool video = true;   // write DIR/cameras/<id>.avi (left view, MJPEG at the camera's rate)
-  RendererOptions renderer;
+  RendererOptions renderer;  // effects.seed is replaced per camera by camera_noise_seed()
 };
 
 class CameraRig : public RunObserver {

@@ -24,6 +24,8 @@ class PlanViewSensor : public VisionSensor {
         {"cell_size", ParamType::kNumber, 0.02, 0.005, 0.5, "plan-view cell (m)"},
         {"max_range", ParamType::kNumber, 8.0, 0.5, 100, "m from the camera covered by the plan view"},
         {"template_size", ParamType::kInteger, 40.0, 4, 400, "height and occupancy templates (cells)"},
+        {"edge_radius", ParamType::kInteger, 3.0, 0, 50, "depth-edge filter window (px, 0 = off)"},
+        {"edge_tolerance_px", ParamType::kNumber, 1.0, 0, 64, "depth-edge filter: disparity px behind the nearest depth"},
         {"track_threshold", ParamType::kNumber, 1.4, 0, 100, "update a track only when its score is below this"},
     };
   }
@@ -45,6 +47,8 @@ class PlanViewSensor : public VisionSensor {
     vision::PlanViewSystemParams sp;
     sp.background.num_gaussians = p.integer("gaussians");
     sp.background.learning_rate = static_cast<float>(p.number("learning_rate"));
+    sp.depth_filter.edge_radius = p.integer("edge_radius");
+    sp.depth_filter.edge_tolerance_px = p.number("edge_tolerance_px");
     sp.plan.cell_size = p.number("cell_size");
     sp.plan.max_range = p.number("max_range");
     sp.tracking.camera = ctx.camera.id;

@@ -1,6 +1,7 @@
 #include "plugins/vision_sensors/vision_sensor.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <mutex>
 
 #include "world/rng.h"
@@ -95,6 +96,8 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
     }
     auto a = std::make_unique<Attached>();
     a->camera = cam;
+    a->file = scenario.file.string();
+    a->key = key;
     a->sensor = std::move(*sensor);
     if (a->sensor->wants_frames()) {
       if (!rig) return internal_error("camera " + cam.id + ": a frame-consuming vision sensor needs the camera rig");
@@ -102,7 +105,7 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
       Attached* att = a.get();
       rig->add_consumer(cam.id, [self, att](const CameraSpec&, const vision::StereoFrame& frame, const World& world) {
         std::vector<vision::Track> fresh;
-        if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return s;
+        if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return Status(in_context(*att, world, s.error()));
         ++att->index;
         return self->emit(&fresh);
       });
@@ -125,7 +128,7 @@ Status VisionSensorHost::after_step(const World& world) {
   for (auto& a : sensors_) {
     if (a->sensor->wants_frames() || world.time() < a->next_tick) continue;
     std::vector<vision::Track> fresh;
-    if (Status s = a->sensor->tick(nullptr, world, &fresh); !s) return s;
+    if (Status s = a->sensor->tick(nullptr, world, &fresh); !s) return Status(in_context(*a, world, s.error()));
     ++a->index;
     a->next_tick = from_seconds(static_cast<double>(a->index) / a->camera.rate_hz);
     if (Status s = emit(&fresh); !s) return s;
@@ -141,6 +144,18 @@ Status VisionSensorHost::emit(std::vector<vision::Track>* fresh) {
     tracks_.push_back(std::move(t));
   }
   return Status::Ok();
+}
+
+Error VisionSensorHost::in_context(const Attached& a, const World& world, Error e) {
+  char when[48];
+  std::snprintf(when, sizeof when, " (at t = %.3f s)", to_seconds(world.time()));
+  e.message = "camera " + a.camera.id + ", vision sensor " + a.camera.plugin + ": " + e.message + when;
+  if (e.file.empty()) {
+    e.file = a.file;
+    e.line = a.camera.line;
+  }
+  if (e.key.empty() || e.key == "frame") e.key = a.key + ".plugin";
+  return e;
 }
 
 Status VisionSensorHost::finish(const World& world) {

@@ -61,7 +61,8 @@ void register_vision_sensor(const std::string& name, std::function<std::unique_p
 class VisionSensorHost : public RunObserver {
  public:
   // Configures a sensor for every camera with a `plugin`; the rig is used for frame sensors
-  // (it must also be in the run's observers, before this host). Errors name the scenario line.
+  // (it must also be in the run's observers, after this host: the rig's start() renders the
+  // t = 0 frames, which the host must be ready to write). Errors name the scenario line.
   static Result<std::unique_ptr<VisionSensorHost>> create(const Scenario& scenario, render::CameraRig* rig);
   bool empty() const { return sensors_.empty(); }
 
@@ -74,11 +75,14 @@ class VisionSensorHost : public RunObserver {
  private:
   struct Attached {
     CameraSpec camera;
+    std::string file, key;  // the scenario file and "cameras[i]", for run-time errors
     std::unique_ptr<VisionSensor> sensor;
     SimTime next_tick = 0;
     int64_t index = 0;
   };
   Status emit(std::vector<vision::Track>* fresh);
+  // A sensor's run-time error, naming the scenario, the camera's line and key, and the time.
+  static Error in_context(const Attached& a, const World& world, Error e);
 
   std::vector<std::unique_ptr<Attached>> sensors_;
   std::vector<vision::Track> tracks_;

@@ -288,10 +288,12 @@ void add_bench_camera_commands(CLI::App* bench) {
       ro.world.plugin_dirs = plugin_search_path();
       vision::StereoMatcherParams mp;
       mp.num_disparities = z.w >= 640 ? 64 : 32;
-      ro.matcher = mp;
+      auto matcher = vision::StereoMatcher::create(mp);
+      if (!matcher) throw Exit{report(matcher.error())};
       auto src = render::RenderedStereoSource::open(sc, po->camera, ro);
       if (!src) throw Exit{report(src.error())};
-      // Render and match every frame first: the pipeline is timed given the disparity.
+      // Render and match the frames first (only from --from on, keeping only what the pipeline
+      // reads): the pipeline is timed given the disparity.
       std::vector<vision::StereoFrame> frames;
       vision::StereoFrame f;
       while (static_cast<int>(frames.size()) < po->frames) {
@@ -299,7 +301,13 @@ void add_bench_camera_commands(CLI::App* bench) {
         if (!more) throw Exit{report(more.error())};
         if (!*more) break;
         if (to_seconds(f.stamp_ns) + 1e-9 < po->from) continue;
-        frames.push_back(f);
+        if (Status s = render::match_disparity(*matcher, *(*src)->camera_model(), &f); !s) throw Exit{report(s.error())};
+        vision::StereoFrame kept;
+        kept.index = f.index;
+        kept.stamp_ns = f.stamp_ns;
+        kept.left = f.left.clone();
+        kept.depth = f.depth;
+        frames.push_back(std::move(kept));
         f = vision::StereoFrame();
       }
       if (frames.empty()) throw Exit{report(bad_input(po->scenario, 0, "--from", "no frames after that time"))};

@@ -51,10 +51,13 @@ void add_run_command(CLI::App& app) {
     rig_options.video = ro.video;
     render::CameraRig rig(rig_options);
     // The cameras' vision sensors (plugin: under a camera) write tracks.jsonl.
+    // (--seed reaches the sensors' own seeds; the host starts before the rig, whose first frames
+    // it consumes at t = 0.)
+    if (opts->seed) scenario->seed = *opts->seed;
     auto host = sensors::VisionSensorHost::create(*scenario, &rig);
     if (!host) throw Exit{report(host.error())};
-    if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
     if (!(*host)->empty()) ro.observers.push_back(host->get());
+    if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
     const bool tty = isatty(STDERR_FILENO);
     int last_decile = -1;
     if (!opts->quiet) {

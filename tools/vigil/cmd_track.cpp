@@ -75,7 +75,10 @@ void add_track_command(CLI::App& app) {
     const bool tty = isatty(STDERR_FILENO);
     if (!o->quiet) std::fprintf(stderr, "[track] %s\n", (*source)->describe().c_str());
 
+    double fps = 15;  // the chapter's rig, for sources that do not say
+    if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) fps = r->camera().rate_hz;
     vision::StereoFrame frame;
+    cv::Mat last_annotated;
     int64_t n = 0, n_tracks = 0;
     double busy = 0;
     const auto t_start = std::chrono::steady_clock::now();
@@ -99,11 +102,11 @@ void add_track_command(CLI::App& app) {
         const cv::Mat img = system->annotate(frame, *tracks);
         if (!video.isOpened()) {
           const std::string path = (out / "annotated.avi").string();
-          if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 15, img.size()))
+          if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, img.size()))
             throw Exit{report(bad_input(path, 0, "--out", "cannot open the video for writing"))};
         }
         video.write(img);
-        cv::imwrite((out / "annotated_last.png").string(), img);
+        last_annotated = img;
       }
       ++n;
       if (!o->quiet && (n % 30 == 0)) {
@@ -112,6 +115,8 @@ void add_track_command(CLI::App& app) {
       }
     }
     if (tty && !o->quiet) std::fprintf(stderr, "\n");
+    if (!last_annotated.empty() && !cv::imwrite((out / "annotated_last.png").string(), last_annotated))
+      throw Exit{report(bad_input((out / "annotated_last.png").string(), 0, "--out", "cannot write the image"))};
     if (Status s = writer.close(); !s) throw Exit{report(s.error())};
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("%lld frames, %lld track records in %s/tracks.jsonl; pipeline %.2f ms/frame (foreground, plan view, "
