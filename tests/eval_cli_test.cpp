@@ -97,6 +97,46 @@ fs::path make_run(const std::string& name) {
   return dir;
 }
 
+TEST(EvalCli, EventsArePrecisionRecallLatencyAndErrorPerKind) {
+  // One true left bag (due at 0.9 s at (5, 2)); reports: that left bag 0.6 s late and 0.1 m off,
+  // a cancellation (not a report), and a false bag_taken. No tracks.jsonl: events alone are enough.
+  const fs::path run = make_run("events");
+  fs::remove(run / "tracks.jsonl");
+  {
+    std::ofstream ev(run / "events.jsonl", std::ios::binary);
+    ev << R"({"t_ns":1500000000,"id":1,"kind":"left_bag","camera":"cam_a","map":[5.1,2.0,0.2],"people":[1],"confidence":0.9})" "\n"
+       << R"({"t_ns":1600000000,"id":1,"kind":"left_bag","cancelled":true,"camera":"cam_a","map":[5.1,2.0,0.2]})" "\n"
+       << R"({"t_ns":1700000000,"id":2,"kind":"bag_taken","camera":"cam_a","map":[9.0,2.0,0.2],"people":[3]})" "\n";
+  }
+  Output o = vigil_cmd("eval " + run.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("left_bag"), std::string::npos) << o.out;
+  std::ifstream f(run / "eval.json");
+  const auto j = nlohmann::json::parse(f);
+  ASSERT_TRUE(j.contains("events")) << j.dump(2);
+  EXPECT_FALSE(j.contains("tracking"));
+  const auto& e = j["events"];
+  EXPECT_EQ(e["truth"], 1);
+  EXPECT_EQ(e["reported"], 2);
+  EXPECT_EQ(e["matched"], 1);
+  EXPECT_DOUBLE_EQ(e["precision"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(e["recall"].get<double>(), 1.0);
+  const auto& lb = e["per_kind"]["left_bag"];
+  EXPECT_NEAR(lb["latency_s"].get<double>(), 0.6, 1e-9);
+  EXPECT_NEAR(lb["localisation_error_m"].get<double>(), 0.1, 1e-9);
+  EXPECT_DOUBLE_EQ(e["per_kind"]["bag_taken"]["precision"].get<double>(), 0.0);
+  EXPECT_EQ(e["false_reports"].size(), 1u);
+  // A malformed events line names the file, line and key.
+  {
+    std::ofstream ev(run / "events.jsonl", std::ios::binary);
+    ev << R"({"t_ns":1500000000,"id":1,"kind":"left_bag","camera":"cam_a","map":[5.1,2.0,0.2]})" "\n"
+       << R"({"t_ns":1500000000,"id":2,"kind":"fire","camera":"cam_a","map":[5.1,2.0,0.2]})" "\n";
+  }
+  o = vigil_cmd("eval " + run.string());
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("events.jsonl:2: kind"), std::string::npos) << o.out;
+}
+
 }  // namespace
 
 TEST(EvalCli, RunFolderMetricsMatchTheHandWorkedValues) {

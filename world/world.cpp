@@ -428,7 +428,9 @@ Status World::finish_action(int i) {
       const ObjectEntity& o = objects_[oi];
       record("touch", o.spec.id, o.pose.position());
       if (!(o.spec.authorised || o.spec.owner == p.spec.id)) {
-        events_.push_back({"unauthorised_object", time_, time_, {p.spec.id}, o.spec.id, o.spec.owner,
+        // The incident starts when the hand reaches the object, not when it lets go.
+        const SimTime start = time_ - from_seconds(a.duration > 0 ? a.duration : kDefaultHandSeconds);
+        events_.push_back({"unauthorised_object", start, start, {p.spec.id}, o.spec.id, o.spec.owner,
                            {o.pose.x, o.pose.y, o.z}});
       }
       break;

@@ -44,7 +44,10 @@ class TruthSensor : public VisionSensor {
   bool wants_frames() const override { return false; }
 
   Status tick(const vision::StereoFrame*, const World& world, std::vector<vision::Track>* out) override {
-    if (!walls_) walls_ = std::make_unique<WallRaycaster>(world.map());
+    if (!walls_) {
+      sight_map_ = sight_map(world);
+      walls_ = std::make_unique<WallRaycaster>(sight_map_);
+    }
     const SimTime now = world.time();
     for (const auto& r : world.robots()) {
       see(world, now, "robot:" + r.spec.id, vision::TrackClass::kRobot, {r.state.pose.x, r.state.pose.y},
@@ -165,10 +168,36 @@ class TruthSensor : public VisionSensor {
     return std::nullopt;
   }
 
+  // The map as lines of sight see it: furniture lower than the camera (tables) is seen over,
+  // so its cells are cleared; walls stay.
+  OccupancyGrid sight_map(const World& world) const {
+    OccupancyGrid g = world.map();
+    const double cam_z = ctx_.model.map_from_optical().translation().z();
+    const double r = g.resolution();
+    for (const auto& f : world.furniture()) {
+      if (f.height >= cam_z) continue;
+      const double c = std::cos(f.pose.yaw), sn = std::sin(f.pose.yaw);
+      const double hx = f.size_x / 2 + r, hy = f.size_y / 2 + r, reach = std::hypot(hx, hy);
+      int x0, y0, x1, y1;
+      if (!g.world_to_cell({f.pose.x - reach, f.pose.y - reach}, &x0, &y0)) x0 = y0 = 0;
+      if (!g.world_to_cell({f.pose.x + reach, f.pose.y + reach}, &x1, &y1)) x1 = g.width() - 1, y1 = g.height() - 1;
+      for (int cy = std::max(0, std::min(y0, y1)); cy <= std::min(g.height() - 1, std::max(y0, y1)); ++cy) {
+        for (int cx = std::max(0, std::min(x0, x1)); cx <= std::min(g.width() - 1, std::max(x0, x1)); ++cx) {
+          const Vec2 p = g.cell_center(cx, cy);
+          const double lx = c * (p.x - f.pose.x) + sn * (p.y - f.pose.y);
+          const double ly = -sn * (p.x - f.pose.x) + c * (p.y - f.pose.y);
+          if (std::abs(lx) <= hx && std::abs(ly) <= hy) g.set(cx, cy, Cell::kFree);
+        }
+      }
+    }
+    return g;
+  }
+
   SensorContext ctx_;
   double max_range_ = 8, noise_ = 0.05, miss_ = 0, false_alarms_ = 0, confidence_ = 0.9;
   bool walls_occlude_ = true;
   Rng rng_;
+  OccupancyGrid sight_map_;  // what walls_ casts against
   std::unique_ptr<WallRaycaster> walls_;
   std::map<std::string, Memory> memory_;
   int next_id_ = 1;

@@ -99,6 +99,7 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
     a->file = scenario.file.string();
     a->key = key;
     a->sensor = std::move(*sensor);
+    a->model = ctx.model;
     if (a->sensor->wants_frames()) {
       if (!rig) return internal_error("camera " + cam.id + ": a frame-consuming vision sensor needs the camera rig");
       VisionSensorHost* self = host.get();
@@ -107,7 +108,7 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
         std::vector<vision::Track> fresh;
         if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return Status(in_context(*att, world, s.error()));
         ++att->index;
-        return self->emit(&fresh);
+        return self->emit(att, frame.stamp_ns, &fresh);
       });
     }
     host->sensors_.push_back(std::move(a));
@@ -115,10 +116,33 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
   return host;
 }
 
+vision::ActivityRuleParams activity_rule_params(const World& world) {
+  const Scenario& sc = world.scenario();
+  vision::ActivityRuleParams p;
+  p.left_bag_distance = sc.rules.left_bag_distance;
+  p.left_bag_time = sc.rules.left_bag_time;
+  p.exchange_distance = sc.rules.exchange_distance;
+  for (const auto& o : world.objects()) {
+    if (o.spec.authorised || o.carrier >= 0 || !o.present) continue;
+    p.watched.push_back({o.spec.id, {o.pose.x, o.pose.y, o.z + o.spec.size_z / 2}, false});
+  }
+  return p;
+}
+
 Status VisionSensorHost::start(const World& world, const std::filesystem::path& out_dir) {
   tracks_.clear();
+  events_.clear();
+  const vision::ActivityRuleParams rp = activity_rule_params(world);
+  for (auto& a : sensors_) {
+    auto rules = vision::ActivityRules::create(rp, a->camera.id, a->model);
+    if (!rules) return in_context(*a, world, rules.error());
+    a->rules.emplace(std::move(*rules));
+  }
   if (!out_dir.empty() && !sensors_.empty()) {
     if (Status s = out_.open(out_dir / "tracks.jsonl"); !s) return s;
+    events_path_ = (out_dir / "events.jsonl").string();
+    events_out_ = std::fopen(events_path_.c_str(), "wb");
+    if (!events_out_) return bad_input(events_path_, 0, "", "cannot create file");
     writing_ = true;
   }
   return after_step(world);
@@ -131,12 +155,28 @@ Status VisionSensorHost::after_step(const World& world) {
     if (Status s = a->sensor->tick(nullptr, world, &fresh); !s) return Status(in_context(*a, world, s.error()));
     ++a->index;
     a->next_tick = from_seconds(static_cast<double>(a->index) / a->camera.rate_hz);
-    if (Status s = emit(&fresh); !s) return s;
+    if (Status s = emit(a.get(), world.time(), &fresh); !s) return s;
   }
   return Status::Ok();
 }
 
-Status VisionSensorHost::emit(std::vector<vision::Track>* fresh) {
+Status VisionSensorHost::emit(Attached* a, int64_t stamp_ns, std::vector<vision::Track>* fresh) {
+  if (a->rules) {
+    auto events = a->rules->update(stamp_ns, *fresh);
+    if (!events) {
+      Error e = events.error();
+      e.message = "camera " + a->camera.id + ", activity rules: " + e.message;
+      return internal_error(e.str());  // the sensor produced tracks the rules cannot take: our bug
+    }
+    for (const vision::Event& ev : *events) {
+      if (events_out_) {
+        const std::string line = vision::format_event_json(ev) + "\n";
+        if (std::fwrite(line.data(), 1, line.size(), events_out_) != line.size())
+          return internal_error("cannot write " + events_path_);
+      }
+      events_.push_back(ev);
+    }
+  }
   for (auto& t : *fresh) {
     if (writing_) {
       if (Status s = out_.write(t); !s) return s;
@@ -158,12 +198,18 @@ Error VisionSensorHost::in_context(const Attached& a, const World& world, Error 
   return e;
 }
 
-Status VisionSensorHost::finish(const World& world) {
-  if (writing_) {
-    writing_ = false;
-    return out_.close();
-  }
+Status VisionSensorHost::finish(const World&) {
+  if (!writing_) return Status::Ok();
+  writing_ = false;
+  const bool events_ok = std::fclose(events_out_) == 0;
+  events_out_ = nullptr;
+  if (Status s = out_.close(); !s) return s;
+  if (!events_ok) return internal_error("cannot write " + events_path_);
   return Status::Ok();
+}
+
+VisionSensorHost::~VisionSensorHost() {
+  if (events_out_) std::fclose(events_out_);
 }
 
 }  // namespace vigil::sensors

@@ -5,18 +5,23 @@
 //     CameraRig's OSMesa frames;
 //   - `truth`: a fast model that reads the world's ground truth and reports what is in the
 //     camera's view with position noise, misses and false alarms, for large runs without rendering.
-// VisionSensorHost runs them all during `vigil run` and writes DIR/tracks.jsonl.
+// VisionSensorHost runs them all during `vigil run`, feeds each camera's tracks to its activity
+// rules, and writes DIR/tracks.jsonl and DIR/events.jsonl.
 #pragma once
 
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/status.h"
 #include "plugins/stereo_camera/stereo_camera.h"
+#include "vision/activity_rules.h"
+#include "vision/event.h"
 #include "vision/frame_source.h"
 #include "vision/stereo_camera_model.h"
 #include "vision/track.h"
@@ -55,15 +60,24 @@ Result<std::unique_ptr<VisionSensor>> create_vision_sensor(const std::string& na
 // Adds a sensor factory (used by the plan-view pipeline and by tests).
 void register_vision_sensor(const std::string& name, std::function<std::unique_ptr<VisionSensor>()> factory);
 
+// The activity-rule parameters of a scenario's cameras: its `rules` thresholds, and as marked
+// objects those the scenario declares not authorised, where they are when the run starts (the
+// operator's marking of what may not be handled).
+vision::ActivityRuleParams activity_rule_params(const World& world);
+
 // Runs the vision sensors of a scenario's cameras during a run, at each camera's rate: frame
-// sensors get the rig's rendered frames, the others tick on their own. Writes every track to
-// DIR/tracks.jsonl in time order (and keeps them for callers).
+// sensors get the rig's rendered frames, the others tick on their own. Each tick's tracks go to
+// the camera's activity rules. Writes every track to DIR/tracks.jsonl and every event to
+// DIR/events.jsonl in time order (and keeps both for callers).
 class VisionSensorHost : public RunObserver {
  public:
   // Configures a sensor for every camera with a `plugin`; the rig is used for frame sensors
   // (it must also be in the run's observers, after this host: the rig's start() renders the
   // t = 0 frames, which the host must be ready to write). Errors name the scenario line.
   static Result<std::unique_ptr<VisionSensorHost>> create(const Scenario& scenario, render::CameraRig* rig);
+  ~VisionSensorHost() override;
+  VisionSensorHost(const VisionSensorHost&) = delete;
+  VisionSensorHost& operator=(const VisionSensorHost&) = delete;
   bool empty() const { return sensors_.empty(); }
 
   Status start(const World& world, const std::filesystem::path& out_dir) override;
@@ -71,22 +85,30 @@ class VisionSensorHost : public RunObserver {
   Status finish(const World& world) override;
 
   const std::vector<vision::Track>& tracks() const { return tracks_; }
+  const std::vector<vision::Event>& events() const { return events_; }
 
  private:
+  VisionSensorHost() = default;
   struct Attached {
     CameraSpec camera;
     std::string file, key;  // the scenario file and "cameras[i]", for run-time errors
     std::unique_ptr<VisionSensor> sensor;
+    vision::StereoCameraModel model;
+    std::optional<vision::ActivityRules> rules;  // made at start()
     SimTime next_tick = 0;
     int64_t index = 0;
   };
-  Status emit(std::vector<vision::Track>* fresh);
+  // One tick's tracks of a camera: written, kept, and given to the camera's rules.
+  Status emit(Attached* a, int64_t stamp_ns, std::vector<vision::Track>* fresh);
   // A sensor's run-time error, naming the scenario, the camera's line and key, and the time.
   static Error in_context(const Attached& a, const World& world, Error e);
 
   std::vector<std::unique_ptr<Attached>> sensors_;
   std::vector<vision::Track> tracks_;
+  std::vector<vision::Event> events_;
   vision::TrackJsonlWriter out_;
+  std::FILE* events_out_ = nullptr;
+  std::string events_path_;
   bool writing_ = false;
 };
 

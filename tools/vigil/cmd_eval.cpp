@@ -1,7 +1,9 @@
 // vigil eval RUN_DIR [--match-distance M] [--camera ID] [--max-range M (--camera-xy X,Y | --scenario FILE)]
 //                    [--in-view] [--classes person,bag] [--exclude-carried] [--camera-rate HZ] [--tracks FILE]
 //   Multi-object-tracking metrics of a run's tracks.jsonl against its ground_truth.jsonl in the
-//   map frame; writes RUN_DIR/eval.json ("tracking", other top-level keys kept) and prints a table.
+//   map frame, and of its events.jsonl against the ground-truth events (precision, recall,
+//   latency, localisation per kind); writes RUN_DIR/eval.json ("tracking", "events", other
+//   top-level keys kept) and prints tables.
 // vigil eval --mot-gt GT.txt --mot-test TEST.txt [--iou-threshold 0.5] [--gt-min-confidence 1]
 //   The same metrics on MOTChallenge box files (py-motmetrics 1.4.0 figures), printed as JSON.
 // Documented in docs/EVALUATION.md.
@@ -18,6 +20,8 @@
 #include <vector>
 
 #include "tools/vigil/commands.h"
+#include "vision/event.h"
+#include "vision/event_eval.h"
 #include "vision/map_track_eval.h"
 #include "vision/mot_metrics.h"
 #include "vision/track_io.h"
@@ -163,6 +167,64 @@ void run_mot_challenge(const Opts& o) {
   std::printf("%s\n", motmetrics_json(*m).dump(2).c_str());
 }
 
+// Precision, recall, latency and localisation of the run's events against the ground truth's,
+// per kind and in total: eval.json "events", and a table.
+void evaluate_run_events(const fs::path& gt_path, const fs::path& events_path, nlohmann::ordered_json* eval) {
+  auto truth = vision::load_truth_events(gt_path);
+  if (!truth) throw Exit{report(truth.error())};
+  auto reports = vision::read_events_jsonl(events_path.string());
+  if (!reports) throw Exit{report(reports.error())};
+  vision::EventEvalOptions eo;
+  auto r = vision::evaluate_events(*truth, *reports, eo);
+  if (!r) throw Exit{report(r.error())};
+  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr); };
+  const auto score_json = [&](const vision::EventScore& s) {
+    nlohmann::ordered_json j;
+    j["truth"] = s.truth;
+    j["reported"] = s.reported;
+    j["matched"] = s.matched;
+    j["precision"] = s.precision;
+    j["recall"] = s.recall;
+    j["latency_s"] = num(s.latency_s);
+    j["localisation_error_m"] = num(s.localisation_error_m);
+    return j;
+  };
+  nlohmann::ordered_json ev = score_json(r->total);
+  ev["events_file"] = events_path.filename().string();
+  ev["match"] = {{"early_s", eo.early_s}, {"max_latency_s", eo.max_latency_s}, {"max_distance_m", eo.max_distance_m}};
+  nlohmann::ordered_json kinds = nlohmann::ordered_json::object();
+  for (const auto& [k, s] : r->per_kind) kinds[std::string(vision::to_string(k))] = score_json(s);
+  ev["per_kind"] = kinds;
+  nlohmann::ordered_json missed = nlohmann::ordered_json::array(), falses = nlohmann::ordered_json::array();
+  for (size_t i : r->missed) {
+    const auto& t = (*truth)[i];
+    missed.push_back({{"kind", std::string(vision::to_string(t.kind))}, {"confirmed_ns", t.confirmed_ns}, {"object", t.object}});
+  }
+  for (size_t i : r->false_reports) {
+    const auto& e = (*reports)[i];
+    falses.push_back({{"kind", std::string(vision::to_string(e.kind))}, {"t_ns", e.stamp_ns}, {"camera", e.camera}, {"id", e.id}});
+  }
+  ev["missed"] = missed;
+  ev["false_reports"] = falses;
+  (*eval)["events"] = ev;
+
+  const auto cell = [](double v) {
+    char buf[32];
+    if (std::isfinite(v)) std::snprintf(buf, sizeof buf, "%9.3f", v); else std::snprintf(buf, sizeof buf, "%9s", "-");
+    return std::string(buf);
+  };
+  std::printf("events (%s against %s; a report matches within %.1f s before to %.1f s after the due time and %.2f m)\n",
+              events_path.filename().string().c_str(), gt_path.filename().string().c_str(), eo.early_s, eo.max_latency_s,
+              eo.max_distance_m);
+  std::printf("%-20s%6s%9s%8s%10s%10s%10s%10s\n", "kind", "truth", "reported", "matched", "precision", "recall", "latency_s", "error_m");
+  const auto row = [&](const std::string& name, const vision::EventScore& s) {
+    std::printf("%-20s%6d%9d%8d %s %s %s %s\n", name.c_str(), s.truth, s.reported, s.matched, cell(s.precision).c_str(),
+                cell(s.recall).c_str(), cell(s.latency_s).c_str(), cell(s.localisation_error_m).c_str());
+  };
+  for (const auto& [k, s] : r->per_kind) row(std::string(vision::to_string(k)), s);
+  row("all", r->total);
+}
+
 void run_map_eval(const Opts& o) {
   if (o.run_dir.empty()) throw Exit{report(bad_input("", 0, "RUN_DIR", "give a run folder, or --mot-gt and --mot-test"))};
   const fs::path dir = o.run_dir;
@@ -215,68 +277,76 @@ void run_map_eval(const Opts& o) {
   if (o.max_range && o.camera_xy.empty() && o.scenario.empty())
     throw Exit{report(bad_input("", 0, "--max-range", "needs the camera position: --camera-xy X,Y or --scenario FILE --camera ID"))};
 
-  auto gt = vision::load_ground_truth_ticks(gt_path);
-  if (!gt) throw Exit{report(gt.error())};
-  if (gt->empty()) throw Exit{report(bad_input(gt_path.string(), 0, "", "no tick lines"))};
-  auto tracks = vision::load_tracks_jsonl(tracks_path);
-  if (!tracks) throw Exit{report(tracks.error())};
-  auto r = vision::evaluate_map_tracks(*gt, *tracks, eo);
-  if (!r) {
-    Error e = r.error();
-    if (e.key == "camera" || e.key == "tracks") {
-      e.file = tracks_path.string();
-    } else if (e.key == "match_distance") {
-      e.key = "--match-distance";
-    } else if (e.key == "max_range") {
-      e.key = "--max-range";
-    } else if (e.key == "camera_period") {
-      e.key = "--camera-rate";
-    }
-    throw Exit{report(e)};
-  }
-
+  const bool have_tracks = !o.tracks.empty() || fs::exists(tracks_path);
+  const fs::path events_path = dir / "events.jsonl";
+  const bool have_events = fs::exists(events_path);
+  if (!have_tracks && !have_events)
+    throw Exit{report(bad_input(tracks_path.string(), 0, "",
+                                "missing, and no events.jsonl beside it: the run had no vision sensor (a camera's plugin:)"))};
   const fs::path eval_path = dir / "eval.json";
   auto eval = read_eval_json(eval_path);
   if (!eval) throw Exit{report(eval.error())};
-  nlohmann::ordered_json t;
-  t["ground_truth_file"] = gt_path.filename().string();
-  t["tracks_file"] = o.tracks.empty() ? tracks_path.filename().string() : tracks_path.string();
-  t["camera"] = o.camera.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(o.camera);
-  t["cameras"] = r->cameras;
-  t["match_distance_m"] = eo.match_distance;
-  t["max_range_m"] = eo.max_range ? nlohmann::ordered_json(*eo.max_range) : nlohmann::ordered_json(nullptr);
-  t["in_view"] = eo.half_fov.has_value();
-  t["camera_period_s"] = r->camera_period_s;
-  t["frames"] = r->frames;
-  t["frames_without_tracks"] = r->frames_without_tracks;
-  t["skipped_track_stamps"] = r->skipped_track_stamps;
-  const nlohmann::ordered_json overall = tracking_json(r->overall);
-  for (const auto& item : overall.items()) t[item.key()] = item.value();
-  nlohmann::ordered_json per_class = nlohmann::ordered_json::object();
-  for (const auto& [cls, m] : r->per_class) per_class[std::string(vision::to_string(cls))] = tracking_json(m);
-  t["per_class"] = per_class;
-  (*eval)["tracking"] = t;
-  if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
+  if (have_tracks) {
+    auto gt = vision::load_ground_truth_ticks(gt_path);
+    if (!gt) throw Exit{report(gt.error())};
+    if (gt->empty()) throw Exit{report(bad_input(gt_path.string(), 0, "", "no tick lines"))};
+    auto tracks = vision::load_tracks_jsonl(tracks_path);
+    if (!tracks) throw Exit{report(tracks.error())};
+    auto r = vision::evaluate_map_tracks(*gt, *tracks, eo);
+    if (!r) {
+      Error e = r.error();
+      if (e.key == "camera" || e.key == "tracks") {
+        e.file = tracks_path.string();
+      } else if (e.key == "match_distance") {
+        e.key = "--match-distance";
+      } else if (e.key == "max_range") {
+        e.key = "--max-range";
+      } else if (e.key == "camera_period") {
+        e.key = "--camera-rate";
+      }
+      throw Exit{report(e)};
+    }
 
-  char head[256];
-  std::snprintf(head, sizeof head, "%lld frames (%.2f Hz), match within %.2f m", static_cast<long long>(r->frames),
-                r->camera_period_s > 0 ? 1.0 / r->camera_period_s : 0.0, eo.match_distance);
-  std::string line = "vigil eval " + dir.string() + ": " + head + ", " + (o.camera.empty() ? "all cameras" : "camera " + o.camera);
-  if (eo.max_range) {
-    char range[96];
-    std::snprintf(range, sizeof range, ", ground truth within %.2f m of (%.2f, %.2f)", *eo.max_range, eo.camera_x, eo.camera_y);
-    line += range;
-  }
-  if (eo.half_fov) {
-    char fov[96];
-    std::snprintf(fov, sizeof fov, ", in a %.1f deg field of view", 2 * *eo.half_fov * 180 / std::numbers::pi);
-    line += fov;
-  }
-  std::printf("%s\n", line.c_str());
-  std::printf("%-8s%8s%8s%8s%8s%8s%8s%8s %6s %4s %4s %4s %6s %6s %5s %5s\n", "class", "MOTA", "MOTP(m)", "IDF1", "IDP", "IDR",
-              "Rcll", "Prcn", "GT", "MT", "PT", "ML", "FP", "FN", "IDSW", "Frag");
-  print_row("all", r->overall);
-  for (const auto& [cls, m] : r->per_class) print_row(std::string(vision::to_string(cls)), m);
+    nlohmann::ordered_json t;
+    t["ground_truth_file"] = gt_path.filename().string();
+    t["tracks_file"] = o.tracks.empty() ? tracks_path.filename().string() : tracks_path.string();
+    t["camera"] = o.camera.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(o.camera);
+    t["cameras"] = r->cameras;
+    t["match_distance_m"] = eo.match_distance;
+    t["max_range_m"] = eo.max_range ? nlohmann::ordered_json(*eo.max_range) : nlohmann::ordered_json(nullptr);
+    t["in_view"] = eo.half_fov.has_value();
+    t["camera_period_s"] = r->camera_period_s;
+    t["frames"] = r->frames;
+    t["frames_without_tracks"] = r->frames_without_tracks;
+    t["skipped_track_stamps"] = r->skipped_track_stamps;
+    const nlohmann::ordered_json overall = tracking_json(r->overall);
+    for (const auto& item : overall.items()) t[item.key()] = item.value();
+    nlohmann::ordered_json per_class = nlohmann::ordered_json::object();
+    for (const auto& [cls, m] : r->per_class) per_class[std::string(vision::to_string(cls))] = tracking_json(m);
+    t["per_class"] = per_class;
+    (*eval)["tracking"] = t;
+    char head[256];
+    std::snprintf(head, sizeof head, "%lld frames (%.2f Hz), match within %.2f m", static_cast<long long>(r->frames),
+                  r->camera_period_s > 0 ? 1.0 / r->camera_period_s : 0.0, eo.match_distance);
+    std::string line = "vigil eval " + dir.string() + ": " + head + ", " + (o.camera.empty() ? "all cameras" : "camera " + o.camera);
+    if (eo.max_range) {
+      char range[96];
+      std::snprintf(range, sizeof range, ", ground truth within %.2f m of (%.2f, %.2f)", *eo.max_range, eo.camera_x, eo.camera_y);
+      line += range;
+    }
+    if (eo.half_fov) {
+      char fov[96];
+      std::snprintf(fov, sizeof fov, ", in a %.1f deg field of view", 2 * *eo.half_fov * 180 / std::numbers::pi);
+      line += fov;
+    }
+    std::printf("%s\n", line.c_str());
+    std::printf("%-8s%8s%8s%8s%8s%8s%8s%8s %6s %4s %4s %4s %6s %6s %5s %5s\n", "class", "MOTA", "MOTP(m)", "IDF1", "IDP", "IDR",
+                "Rcll", "Prcn", "GT", "MT", "PT", "ML", "FP", "FN", "IDSW", "Frag");
+    print_row("all", r->overall);
+    for (const auto& [cls, m] : r->per_class) print_row(std::string(vision::to_string(cls)), m);
+}
+  if (have_events) evaluate_run_events(gt_path, events_path, &*eval);
+  if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
   std::printf("wrote %s\n", eval_path.string().c_str());
 }
 

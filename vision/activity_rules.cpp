@@ -1,0 +1,325 @@
+#include "vision/activity_rules.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace vigil::vision {
+
+namespace {
+
+constexpr double kNsPerS = 1e9;
+
+int64_t ns(double seconds) { return static_cast<int64_t>(std::llround(seconds * kNsPerS)); }
+
+double dist(double ax, double ay, double bx, double by) { return std::hypot(ax - bx, ay - by); }
+
+bool finite_track(const Track& t) {
+  return std::isfinite(t.x) && std::isfinite(t.y) && std::isfinite(t.vx) && std::isfinite(t.vy) &&
+         std::isfinite(t.height) && std::isfinite(t.width) && std::isfinite(t.confidence);
+}
+
+}  // namespace
+
+Status ActivityRuleParams::validate() const {
+  struct Check {
+    const char* key;
+    double value;
+    bool allow_zero;
+  };
+  const Check checks[] = {
+      {"owner_distance", owner_distance, false},      {"left_bag_distance", left_bag_distance, false},
+      {"left_bag_time", left_bag_time, true},          {"exchange_distance", exchange_distance, false},
+      {"pickup_distance", pickup_distance, false},     {"take_distance", take_distance, false},
+      {"object_match_distance", object_match_distance, false}, {"object_still_speed", object_still_speed, false},
+      {"object_confirm_time", object_confirm_time, true}, {"object_gone_time", object_gone_time, true},
+      {"start_time", start_time, true},                {"person_lost_time", person_lost_time, false},
+      {"touch_distance", touch_distance, false},       {"touch_time", touch_time, true},
+      {"occluder_radius", occluder_radius, true},
+  };
+  for (const auto& c : checks) {
+    if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
+      return bad_input("", 0, c.key, c.allow_zero ? "must be a finite number >= 0" : "must be a finite number > 0");
+    if (c.value > 1e6) return bad_input("", 0, c.key, "must be at most 1e6");
+  }
+  for (size_t i = 0; i < watched.size(); ++i) {
+    const auto& w = watched[i];
+    const std::string key = "watched[" + std::to_string(i) + "]";
+    if (w.name.empty()) return bad_input("", 0, key + ".name", "must not be empty");
+    if (!std::isfinite(w.position.x) || !std::isfinite(w.position.y) || !std::isfinite(w.position.z))
+      return bad_input("", 0, key + ".position", "must be finite");
+  }
+  return Status::Ok();
+}
+
+Result<ActivityRules> ActivityRules::create(const ActivityRuleParams& params, std::string camera,
+                                            std::optional<StereoCameraModel> model) {
+  if (Status s = params.validate(); !s) return s.error();
+  if (camera.empty()) return bad_input("", 0, "camera", "the activity rules need a camera id");
+  return ActivityRules(params, std::move(camera), std::move(model));
+}
+
+const ActivityRules::Person* ActivityRules::person(int id, int64_t now) const {
+  const auto it = people_.find(id);
+  if (it == people_.end() || now - it->second.last_seen > ns(p_.person_lost_time)) return nullptr;
+  return &it->second;
+}
+
+// True when a person seen now stands between the camera and the object's place, tall enough to
+// cut the line of sight to its top: a vertical cylinder against the segment camera -> object.
+bool ActivityRules::hidden(const ObjectModel& o, int64_t now) const {
+  if (!model_) return false;
+  const Eigen::Vector3d c = model_->map_from_optical().translation();
+  const double sx = o.x - c.x(), sy = o.y - c.y();
+  const double len2 = sx * sx + sy * sy;
+  if (len2 < 1e-9) return false;
+  for (const auto& [id, p] : people_) {
+    if (p.last_seen != now) continue;
+    const double s = ((p.x - c.x()) * sx + (p.y - c.y()) * sy) / len2;  // along the sight line
+    if (s <= 0 || s >= 1) continue;
+    const double off = std::hypot(c.x() + s * sx - p.x, c.y() + s * sy - p.y);
+    if (off > p.width / 2 + p_.occluder_radius) continue;
+    const double ray_z = c.z() + (o.z - c.z()) * s;  // height of the sight line above that point
+    if (ray_z < p.height) return true;
+  }
+  return false;
+}
+
+Event ActivityRules::make_event(EventKind kind, int64_t now, const Point3& where, double confidence) {
+  Event e;
+  e.id = next_event_id_++;
+  e.kind = kind;
+  e.stamp_ns = now;
+  e.camera = camera_;
+  e.map_position = where;
+  if (model_) {
+    const Eigen::Vector3d q = model_->optical_from_map() * Eigen::Vector3d(where.x, where.y, where.z);
+    e.camera_position = {q.x(), q.y(), q.z()};
+  }
+  e.confidence = std::clamp(confidence, 0.0, 1.0);
+  return e;
+}
+
+Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::vector<Track>& tracks) {
+  if (last_stamp_ >= 0 && stamp_ns <= last_stamp_)
+    return bad_input("", 0, "t_ns",
+                     "tracks out of order: tick at " + std::to_string(stamp_ns) + " ns after one at " +
+                         std::to_string(last_stamp_) + " ns (camera " + camera_ + ")");
+  for (const Track& t : tracks) {
+    if (t.camera != camera_)
+      return bad_input("", 0, "camera", "a track of camera '" + t.camera + "' given to the rules of camera '" + camera_ + "'");
+    if (t.stamp_ns != stamp_ns)
+      return bad_input("", 0, "t_ns", "track " + std::to_string(t.id) + " has stamp " + std::to_string(t.stamp_ns) +
+                                          " ns in the tick at " + std::to_string(stamp_ns) + " ns");
+    if (!finite_track(t)) return bad_input("", 0, "track", "track " + std::to_string(t.id) + " has a non-finite value");
+  }
+  const int64_t dt = last_stamp_ < 0 ? 0 : stamp_ns - last_stamp_;
+  if (first_stamp_ < 0) first_stamp_ = stamp_ns;
+  last_stamp_ = stamp_ns;
+
+  std::vector<const Track*> bags;
+  for (const Track& t : tracks) {
+    if (t.cls == TrackClass::kPerson) {
+      Person& p = people_[t.id];
+      p.x = t.x;
+      p.y = t.y;
+      p.height = t.height > 0 ? t.height : 1.7;
+      p.width = t.width > 0 ? t.width : 0.5;
+      p.last_seen = stamp_ns;
+      p.confidence = t.confidence;
+    } else if (t.cls == TrackClass::kBag && std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
+      bags.push_back(&t);
+    }
+  }
+  // People long gone are forgotten (their ids are never reused).
+  for (auto it = people_.begin(); it != people_.end();) {
+    it = stamp_ns - it->second.last_seen > 10 * ns(p_.person_lost_time) ? people_.erase(it) : std::next(it);
+  }
+
+  match_objects(stamp_ns, bags);
+  std::vector<Event> out;
+  rule_left_bag(stamp_ns, &out);
+  rule_taken(stamp_ns, dt, &out);
+  rule_touch(stamp_ns, &out);
+  events_.insert(events_.end(), out.begin(), out.end());
+  return out;
+}
+
+void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& bags) {
+  std::vector<bool> used(objects_.size(), false);
+  for (const Track* t : bags) {
+    int best = -1;
+    double best_d = p_.object_match_distance;
+    for (size_t i = 0; i < objects_.size(); ++i) {
+      if (used[i]) continue;
+      const double d = dist(t->x, t->y, objects_[i].x, objects_[i].y);
+      if (d <= best_d) best_d = d, best = static_cast<int>(i);
+    }
+    if (best < 0) {
+      ObjectModel o;
+      o.x = t->x;
+      o.y = t->y;
+      o.first_seen = now;
+      objects_.push_back(o);
+      used.push_back(false);
+      best = static_cast<int>(objects_.size()) - 1;
+    }
+    ObjectModel& o = objects_[best];
+    used[best] = true;
+    ++o.sightings;
+    const double w = 1.0 / std::min(o.sightings, 20);  // running mean, then a slow average
+    o.x += w * (t->x - o.x);
+    o.y += w * (t->y - o.y);
+    o.z = t->height / 2;
+    o.confidence += (t->confidence - o.confidence) / o.sightings;
+    o.track = t->id;
+    o.last_seen = now;
+    o.unseen_ns = 0;
+    o.taker = -1;  // seen again: whoever was near did not take it
+    o.nearest = -1;
+    double nd = p_.pickup_distance;
+    for (const auto& [id, p] : people_) {
+      if (p.last_seen != now) continue;
+      const double d = dist(p.x, p.y, o.x, o.y);
+      if (d <= nd) nd = d, o.nearest = id, o.nearest_x = p.x, o.nearest_y = p.y;
+    }
+    if (!o.confirmed) {
+      // Owner candidate: the nearest person while the model forms.
+      for (const auto& [id, p] : people_) {
+        if (p.last_seen != now) continue;
+        const double d = dist(p.x, p.y, o.x, o.y);
+        if (d <= p_.owner_distance && d < o.owner_candidate_distance) {
+          o.owner_candidate_distance = d;
+          o.owner_candidate = id;
+        }
+      }
+      if (now - o.first_seen >= ns(p_.object_confirm_time) && o.sightings >= 2) {
+        o.confirmed = true;
+        o.at_start = o.first_seen - first_stamp_ <= ns(p_.start_time);
+        o.owner = o.at_start ? -1 : o.owner_candidate;
+      }
+    }
+  }
+  // Models never confirmed and no longer seen were noise.
+  std::erase_if(objects_, [&](const ObjectModel& o) {
+    return !o.confirmed && now - o.last_seen > ns(p_.object_gone_time);
+  });
+}
+
+void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
+  for (ObjectModel& o : objects_) {
+    if (!o.confirmed || o.owner < 0 || o.left_event || o.taker >= 0) continue;
+    const Person* owner = person(o.owner, now);
+    const bool attended = owner && dist(owner->x, owner->y, o.x, o.y) <= p_.left_bag_distance;
+    if (attended) {
+      o.owner_away_since = -1;
+      continue;
+    }
+    if (o.owner_away_since < 0) o.owner_away_since = now;
+    if (now - o.owner_away_since >= ns(p_.left_bag_time)) {
+      Event e = make_event(EventKind::kLeftBag, now, {o.x, o.y, o.z}, o.confidence);
+      e.object_track = o.track;
+      e.people = {o.owner};
+      o.left_event = e.id;
+      out->push_back(e);
+    }
+  }
+}
+
+void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out) {
+  for (auto it = objects_.begin(); it != objects_.end();) {
+    ObjectModel& o = *it;
+    if (!o.confirmed || o.last_seen == now) {
+      ++it;
+      continue;
+    }
+    // Its place is empty only while it is in view and nobody stands in front of it.
+    if (!hidden(o, now)) o.unseen_ns += dt;
+    if (o.taker < 0) {
+      if (o.unseen_ns < ns(p_.object_gone_time)) {
+        ++it;
+        continue;
+      }
+      // Gone: the person nearest to it when it was last seen (if still tracked) took it.
+      const int taker = o.nearest >= 0 && person(o.nearest, now) ? o.nearest : -1;
+      if (taker < 0) {
+        // Nobody near: it was not a bag, or it left the view; forget it unless it was reported.
+        if (now - o.last_seen > 4 * ns(p_.person_lost_time) + ns(p_.object_gone_time)) {
+          it = objects_.erase(it);
+        } else {
+          ++it;
+        }
+        continue;
+      }
+      o.taker = taker;
+      const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
+      const Person& t = people_.at(taker);
+      o.owner_near_taker = owner && o.owner != taker && dist(owner->x, owner->y, t.x, t.y) <= p_.exchange_distance;
+    }
+    // Taken once the taker moves away from the place (or leaves the view from near it).
+    const Person* t = person(o.taker, now);
+    const bool away = !t || (dist(t->x, t->y, o.x, o.y) >= p_.take_distance &&
+                             dist(t->x, t->y, o.nearest_x, o.nearest_y) >= p_.take_distance / 2);
+    if (!away) {
+      ++it;
+      continue;
+    }
+    if (o.taker == o.owner) {
+      if (o.left_event) {  // the owner came back for it: withdraw the report
+        Event e = make_event(EventKind::kLeftBag, now, {o.x, o.y, o.z}, o.confidence);
+        --next_event_id_;
+        e.id = o.left_event;
+        e.cancelled = true;
+        e.object_track = o.track;
+        e.people = {o.owner};
+        out->push_back(e);
+      }
+    } else {
+      const EventKind kind = o.owner_near_taker ? EventKind::kExchange : EventKind::kBagTaken;
+      const double conf = o.confidence * (t ? std::max(0.5, t->confidence) : 0.5);
+      Event e = make_event(kind, now, {o.x, o.y, o.z}, conf);
+      e.object_track = o.track;
+      e.people = kind == EventKind::kExchange ? std::vector<int>{o.owner, o.taker} : std::vector<int>{o.taker};
+      out->push_back(e);
+    }
+    it = objects_.erase(it);
+  }
+}
+
+void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
+  if (p_.watched.empty()) return;
+  for (const auto& [id, p] : people_) {
+    if (p.last_seen != now) continue;
+    // The nearest marked object to this person.
+    size_t nearest = 0;
+    double nd = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < p_.watched.size(); ++i) {
+      const double d = dist(p.x, p.y, p_.watched[i].position.x, p_.watched[i].position.y);
+      if (d < nd) nd = d, nearest = i;
+    }
+    const auto key = std::make_pair(id, nearest);
+    if (nd > p_.touch_distance) {
+      // A visit ends when the person steps back well clear (hysteresis against jitter).
+      for (auto it = visits_.begin(); it != visits_.end();) {
+        const auto& w = p_.watched[it->first.second];
+        const bool clear = it->first.first == id && dist(p.x, p.y, w.position.x, w.position.y) > p_.touch_distance + 0.3;
+        it = clear ? visits_.erase(it) : std::next(it);
+      }
+      continue;
+    }
+    auto vit = visits_.try_emplace(key, Visit{now, false}).first;
+    Visit& v = vit->second;
+    if (v.reported || now - v.since < ns(p_.touch_time)) continue;
+    v.reported = true;
+    const WatchedObject& w = p_.watched[nearest];
+    if (w.authorised) continue;
+    Event e = make_event(EventKind::kUnauthorisedObject, now, w.position, p.confidence);
+    e.object = w.name;
+    e.people = {id};
+    out->push_back(e);
+  }
+  // Visits of people no longer seen end.
+  std::erase_if(visits_, [&](const auto& kv) { return !person(kv.first.first, now); });
+}
+
+}  // namespace vigil::vision

@@ -1,0 +1,138 @@
+// Activity rules (chapter 10.5 and 10.6.1): simple rule sets on proximity and trajectories that
+// turn one camera's map-frame tracks, tick by tick, into events. They read only Track records,
+// so they work behind any tracker (the plan-view tracker, the ground-truth sensor model, the
+// MSER tracker later).
+//
+// Object models. A bag-class track that stays still becomes an object model once seen for
+// object_confirm_time; models are kept by place, not by track id, so a tracker that loses a bag
+// and finds it again under a new id still has one object. When a model appears, the nearest
+// person within owner_distance becomes its owner (the chapter: "models will be generated for
+// that bag and for the nearest person"); a model first seen within start_time of the first tick,
+// or with nobody near, has no owner ("present at the beginning of the sequence").
+//
+// Rules.
+//  - left bag: the owner's track is farther than left_bag_distance (or gone) for left_bag_time.
+//    If the owner then takes the bag back, a cancellation (same id, cancelled = true) follows.
+//  - bag taken / exchange: the bag goes (its place is in view, not hidden behind a person, and
+//    has no bag for object_gone_time), the nearest person within pickup_distance when it was
+//    last seen is the taker, and the taker then moves away (take_distance from the place and
+//    half that from where they stood): the owner taking it back is no event; anybody
+//    else raises "exchange" when the owner was within exchange_distance of them when the bag
+//    went, else "bag taken" (also for bags present at the start or left by another).
+//  - unauthorised object: a person stays within touch_distance of a marked object (WatchedObject;
+//    the operator marks what may not be handled, as the laptop of the chapter's lab) for
+//    touch_time, and that object is the nearest marked one to them. Once per visit.
+// Small objects on tables are part of the background to a plan-view tracker, which is why
+// handling them is judged against marked places rather than tracks.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "vision/event.h"
+#include "vision/stereo_camera_model.h"
+#include "vision/track.h"
+
+namespace vigil::vision {
+
+// An object the operator has marked: handling it raises "unauthorised object" unless authorised.
+struct WatchedObject {
+  std::string name;
+  Point3 position;  // map frame: centre of the object
+  bool authorised = false;
+};
+
+struct ActivityRuleParams {
+  double owner_distance = 1.5;       // m: the nearest person this close when a bag appears owns it
+  double left_bag_distance = 3.0;    // D (m)
+  double left_bag_time = 5.0;        // T (s)
+  double exchange_distance = 1.5;    // m between the owner and the taker when the bag goes
+  double pickup_distance = 1.2;      // m from the bag's place to a person who may have picked it up
+  double take_distance = 1.0;        // m the taker must move from the place (moving away with it)
+  double object_match_distance = 0.5;  // m: a bag track this close to a model is that model
+  double object_still_speed = 0.3;   // m/s: faster bag tracks are carried, not lying
+  double object_confirm_time = 0.5;  // s a still bag must be seen before it is a model
+  double object_gone_time = 0.5;     // s a model's place must be visible and empty before it is gone
+  double start_time = 1.0;           // s: models first seen this soon after the first tick were there at the start
+  double person_lost_time = 1.0;     // s: a person track unseen this long is gone
+  double touch_distance = 1.0;       // m from a person's centre to a marked object
+  double touch_time = 1.0;           // s within touch_distance
+  double occluder_radius = 0.3;      // m: a person this close to the line of sight hides an object
+  std::vector<WatchedObject> watched;
+  // Checks every value; the key names the parameter.
+  Status validate() const;
+};
+
+class ActivityRules {
+ public:
+  // `camera` names the camera in the events; `model` (optional) gives the camera's pose for the
+  // camera-frame position of events and for occlusion (without it no place counts as hidden).
+  static Result<ActivityRules> create(const ActivityRuleParams& params, std::string camera,
+                                      std::optional<StereoCameraModel> model = std::nullopt);
+
+  // One camera tick: every track of this camera at `stamp_ns` (empty when nothing is tracked).
+  // Stamps must increase; tracks of another camera or with non-finite values are errors.
+  Result<std::vector<Event>> update(int64_t stamp_ns, const std::vector<Track>& tracks);
+
+  // Every event so far, in order.
+  const std::vector<Event>& events() const { return events_; }
+
+  struct ObjectModel {
+    int track = -1;                // the last bag track matched to it
+    double x = 0, y = 0, z = 0;    // its place (running mean) and height (m)
+    int64_t first_seen = 0, last_seen = 0;
+    int sightings = 0;
+    bool confirmed = false;
+    bool at_start = false;
+    int owner = -1;                // person track id, -1 none
+    double owner_candidate_distance = 1e9;
+    int owner_candidate = -1;
+    int64_t owner_away_since = -1;
+    uint64_t left_event = 0;       // id of its left-bag event, 0 = none
+    int64_t unseen_ns = 0;         // visible-and-empty time since last seen
+    int nearest = -1;              // the nearest person within pickup_distance when last seen
+    double nearest_x = 0, nearest_y = 0;  // where they stood then
+    int taker = -1;                // that person once it has gone, -1 = not gone
+    bool owner_near_taker = false; // the owner was within exchange_distance of the taker then
+    double confidence = 0;         // mean confidence of its sightings
+  };
+  const std::vector<ObjectModel>& objects() const { return objects_; }
+
+ private:
+  struct Person {
+    double x = 0, y = 0, height = 1.7, width = 0.5;
+    int64_t last_seen = 0;
+    double confidence = 0;
+  };
+  struct Visit {
+    int64_t since = 0;
+    bool reported = false;
+  };
+
+  ActivityRules(const ActivityRuleParams& p, std::string camera, std::optional<StereoCameraModel> model)
+      : p_(p), camera_(std::move(camera)), model_(std::move(model)) {}
+
+  const Person* person(int id, int64_t now) const;
+  bool hidden(const ObjectModel& o, int64_t now) const;
+  void match_objects(int64_t now, const std::vector<const Track*>& bags);
+  void rule_left_bag(int64_t now, std::vector<Event>* out);
+  void rule_taken(int64_t now, int64_t dt, std::vector<Event>* out);
+  void rule_touch(int64_t now, std::vector<Event>* out);
+  Event make_event(EventKind kind, int64_t now, const Point3& where, double confidence);
+
+  ActivityRuleParams p_;
+  std::string camera_;
+  std::optional<StereoCameraModel> model_;
+  int64_t first_stamp_ = -1, last_stamp_ = -1;
+  std::map<int, Person> people_;
+  std::vector<ObjectModel> objects_;
+  std::map<std::pair<int, size_t>, Visit> visits_;  // (person, watched index)
+  std::vector<Event> events_;
+  uint64_t next_event_id_ = 1;
+};
+
+}  // namespace vigil::vision
