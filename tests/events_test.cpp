@@ -2,7 +2,7 @@
 // activity rules behind each camera must report every scripted incident of the shipped DIS
 // scenarios (recall 1), nothing else (precision 1, including the distractor scenarios), within
 // 2 s of the rule's own time threshold and 0.3 m of the true place; events.jsonl repeats byte for
-// byte for a seed and reads back as the events the host kept.
+// byte for a seed (camera_events.jsonl) and reads back as the events the host kept.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -74,7 +74,7 @@ TEST_P(ShippedScenarioEvents, EveryIncidentReportedNothingElse) {
     EXPECT_LE(m.error_m, 0.3) << vision::to_string(r.truth[m.truth].kind);
   }
   // The file holds what the host kept.
-  auto back = vision::read_events_jsonl((out / "events.jsonl").string());
+  auto back = vision::read_events_jsonl((out / "camera_events.jsonl").string());
   ASSERT_TRUE(back.ok()) << back.error().str();
   ASSERT_EQ(back->size(), r.events.size());
   for (size_t i = 0; i < back->size(); ++i) EXPECT_EQ(vision::format_event_json((*back)[i]), vision::format_event_json(r.events[i]));
@@ -99,9 +99,9 @@ TEST(RunEvents, SameSeedSameEventsFile) {
   const fs::path a = fs::temp_directory_path() / "vigil_events_seed_a", b = fs::temp_directory_path() / "vigil_events_seed_b";
   run_with_truth_sensors("dis_bag_taken", a, 7);
   run_with_truth_sensors("dis_bag_taken", b, 7);
-  const std::string ea = slurp(a / "events.jsonl");
+  const std::string ea = slurp(a / "camera_events.jsonl");
   ASSERT_FALSE(ea.empty());
-  EXPECT_EQ(sha256_hex(ea), sha256_hex(slurp(b / "events.jsonl")));
+  EXPECT_EQ(sha256_hex(ea), sha256_hex(slurp(b / "camera_events.jsonl")));
   fs::remove_all(a);
   fs::remove_all(b);
 }

@@ -290,6 +290,7 @@ vision::Event Incident::as_event() const {
   e.stamp_ns = stamp_ns;
   e.camera = cameras.empty() ? "" : cameras.front();
   e.map_position = position;
+  e.camera_position = camera_position;
   e.object = object;
   e.people = people;
   e.confidence = confidence;

@@ -138,6 +138,7 @@ struct Incident {
   std::string object;
   double confidence = 0;
   std::vector<int> people;              // the first report's track ids (not sent: per camera)
+  vision::Point3 camera_position;       // the first report's camera-frame position (not sent)
   // As an Event for events.jsonl: id = incident, camera = first camera, map position.
   vision::Event as_event() const;
 };

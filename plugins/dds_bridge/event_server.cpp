@@ -89,6 +89,7 @@ IncidentMerger::Outcome IncidentMerger::add(const vision::Event& e) {
   in.object = e.object;
   in.confidence = e.confidence;
   in.people = e.people;
+  in.camera_position = e.camera_position;
   report_to_incident_[key] = incidents_.size();
   incidents_.push_back(in);
   out.what = Outcome::kNew;

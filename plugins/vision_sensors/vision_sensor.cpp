@@ -140,7 +140,7 @@ Status VisionSensorHost::start(const World& world, const std::filesystem::path& 
   }
   if (!out_dir.empty() && !sensors_.empty()) {
     if (Status s = out_.open(out_dir / "tracks.jsonl"); !s) return s;
-    events_path_ = (out_dir / "events.jsonl").string();
+    events_path_ = (out_dir / "camera_events.jsonl").string();
     events_out_ = std::fopen(events_path_.c_str(), "wb");
     if (!events_out_) return bad_input(events_path_, 0, "", "cannot create file");
     writing_ = true;
@@ -175,6 +175,9 @@ Status VisionSensorHost::emit(Attached* a, int64_t stamp_ns, std::vector<vision:
           return internal_error("cannot write " + events_path_);
       }
       events_.push_back(ev);
+      if (sink_) {
+        if (Status s = sink_(ev); !s) return s;
+      }
     }
   }
   for (auto& t : *fresh) {

@@ -6,7 +6,8 @@
 //   - `truth`: a fast model that reads the world's ground truth and reports what is in the
 //     camera's view with position noise, misses and false alarms, for large runs without rendering.
 // VisionSensorHost runs them all during `vigil run`, feeds each camera's tracks to its activity
-// rules, and writes DIR/tracks.jsonl and DIR/events.jsonl.
+// rules, and writes DIR/tracks.jsonl and DIR/camera_events.jsonl (each camera's own reports;
+// the video server's merged incidents go to DIR/events.jsonl, see plugins/dds_bridge).
 #pragma once
 
 #include <filesystem>
@@ -68,7 +69,8 @@ vision::ActivityRuleParams activity_rule_params(const World& world);
 // Runs the vision sensors of a scenario's cameras during a run, at each camera's rate: frame
 // sensors get the rig's rendered frames, the others tick on their own. Each tick's tracks go to
 // the camera's activity rules. Writes every track to DIR/tracks.jsonl and every event to
-// DIR/events.jsonl in time order (and keeps both for callers).
+// DIR/camera_events.jsonl in time order (and keeps both for callers), and hands each event to
+// the event sink (the DDS relay in `vigil run`).
 class VisionSensorHost : public RunObserver {
  public:
   // Configures a sensor for every camera with a `plugin`; the rig is used for frame sensors
@@ -86,6 +88,8 @@ class VisionSensorHost : public RunObserver {
 
   const std::vector<vision::Track>& tracks() const { return tracks_; }
   const std::vector<vision::Event>& events() const { return events_; }
+  // Called with every event as it is raised (after it is written); an error stops the run.
+  void set_event_sink(std::function<Status(const vision::Event&)> sink) { sink_ = std::move(sink); }
 
  private:
   VisionSensorHost() = default;
@@ -106,6 +110,7 @@ class VisionSensorHost : public RunObserver {
   std::vector<std::unique_ptr<Attached>> sensors_;
   std::vector<vision::Track> tracks_;
   std::vector<vision::Event> events_;
+  std::function<Status(const vision::Event&)> sink_;
   vision::TrackJsonlWriter out_;
   std::FILE* events_out_ = nullptr;
   std::string events_path_;

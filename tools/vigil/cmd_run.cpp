@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "plugins/dds_bridge/event_relay.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
@@ -21,6 +22,8 @@ void add_run_command(CLI::App& app) {
     std::optional<double> duration;
     bool no_video = false, quiet = false;
     std::vector<std::string> plugin_paths;
+    uint32_t dds_domain = 0;
+    std::string dds_config;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a scenario headless and write its outputs");
@@ -31,6 +34,8 @@ void add_run_command(CLI::App& app) {
   cmd->add_flag("--no-video", opts->no_video, "do not write topdown.avi, topdown.png or the camera videos");
   cmd->add_flag("--quiet,-q", opts->quiet, "no progress output");
   cmd->add_option("--plugin-path", opts->plugin_paths, "extra folder to search for plugin libraries");
+  cmd->add_option("--dds-domain", opts->dds_domain, "DDS domain id for the events (0 to 232)")->capture_default_str();
+  cmd->add_option("--dds-config", opts->dds_config, "Cyclone DDS XML configuration (default: loopback only)");
   cmd->callback([opts] {
     PluginRegistry registry;
     register_builtin_plugins(registry);
@@ -56,7 +61,25 @@ void add_run_command(CLI::App& app) {
     if (opts->seed) scenario->seed = *opts->seed;
     auto host = sensors::VisionSensorHost::create(*scenario, &rig);
     if (!host) throw Exit{report(host.error())};
-    if (!(*host)->empty()) ro.observers.push_back(host->get());
+    // Their activity rules' events go through DDS to the video server (in this process, on the
+    // loopback configuration unless --dds-config), which writes events.jsonl.
+    std::unique_ptr<dds::DdsEventRelay> relay;
+    if (!(*host)->empty()) {
+      dds::RelayOptions rel;
+      rel.domain.domain_id = opts->dds_domain;
+      if (!opts->dds_config.empty()) {
+        auto cfg = dds::read_config(opts->dds_config);
+        if (!cfg) throw Exit{report(cfg.error())};
+        rel.domain.config = *cfg;
+      }
+      auto r = dds::DdsEventRelay::create(rel);
+      if (!r) throw Exit{report(r.error())};
+      relay = std::move(*r);
+      dds::DdsEventRelay* rp = relay.get();
+      (*host)->set_event_sink([rp](const vision::Event& e) { return rp->publish(e); });
+      ro.observers.push_back(relay.get());
+      ro.observers.push_back(host->get());
+    }
     if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
     const bool tty = isatty(STDERR_FILENO);
     int last_decile = -1;
