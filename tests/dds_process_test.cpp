@@ -1,0 +1,197 @@
+// Events across processes over real Cyclone DDS on loopback, with the vigil binary: a camera
+// node, the video server and a late subscriber; the multi-process result equals `vigil run`'s;
+// the server killed and restarted loses nothing published after it is back; bad options exit 2.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "tests/test_util.h"
+#include "vision/event.h"
+
+extern char** environ;
+
+namespace vigil {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Output {
+  int code = -1;
+  std::string out;
+};
+
+Output vigil_cmd(const std::string& args) {
+  const std::string cmd = test::vigil_binary().string() + " " + args + " 2>&1";
+  Output o;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return o;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) o.out.append(buf.data(), n);
+  const int status = pclose(p);
+  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return o;
+}
+
+// Starts `vigil ARGS` in the background with stdout and stderr to `log`.
+pid_t spawn_vigil(const std::vector<std::string>& args, const fs::path& log) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  std::vector<std::string> all = {test::vigil_binary().string()};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  return rc == 0 ? pid : -1;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+std::vector<vision::Event> read_events(const fs::path& p) {
+  auto r = vision::read_events_jsonl(p.string());
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().str());
+  return r.ok() ? *r : std::vector<vision::Event>{};
+}
+
+// Waits until `file` holds at least `n` event lines, or `timeout_s` passes.
+bool wait_for_events(const fs::path& file, size_t n, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (fs::exists(file)) {
+      size_t lines = 0;
+      for (char c : slurp(file)) lines += c == '\n';
+      if (lines >= n) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return false;
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("vigil_dds_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string session(const std::string& name) { return name + "-" + std::to_string(::getpid()); }
+
+const std::string kScenario = (test::source_dir() / "scenarios" / "dis_bag_taken.yaml").string();
+
+TEST(DdsProcesses, CameraNodeServerAndLateSubscriberMatchVigilRun) {
+  const fs::path dir = temp_dir("three");
+  const std::string s = session("three");
+  const pid_t server = spawn_vigil({"server", kScenario, "--session", s, "--out", (dir / "server").string(), "--max-seconds", "60",
+                                    "--idle-exit", "4"},
+                                   dir / "server.log");
+  ASSERT_GT(server, 0);
+  const Output cam = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor --sensor truth --session " + s +
+                               " --wait-for-server 10 --linger 1");
+  ASSERT_EQ(cam.code, 0) << cam.out;
+  ASSERT_TRUE(wait_for_events(dir / "server" / "events.jsonl", 2, 20)) << slurp(dir / "server.log");
+  // A subscriber that starts after the camera node has gone still gets both incidents.
+  const Output sub = vigil_cmd("events --session " + s + " --count 2 --timeout 20 --text");
+  EXPECT_EQ(sub.code, 0) << sub.out;
+  EXPECT_NE(sub.out.find("left bag 20."), std::string::npos) << sub.out;
+  EXPECT_NE(sub.out.find("bag taken 20."), std::string::npos) << sub.out;
+  EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "server.log");
+
+  // The same scenario in one process (vigil run with the same sensor on that camera) writes the
+  // same incidents.
+  std::string text = slurp(kScenario);
+  const std::string anchor = "  - id: cam_corridor\n";
+  ASSERT_NE(text.find(anchor), std::string::npos);
+  text.insert(text.find(anchor) + anchor.size(), "    plugin: truth\n");
+  const fs::path copy = fs::path(kScenario).parent_path() / ("tmp_dds_" + std::to_string(::getpid()) + ".yaml");
+  { std::ofstream(copy) << text; }
+  const Output run = vigil_cmd("run " + copy.string() + " --out " + (dir / "run").string() + " --no-video -q");
+  fs::remove(copy);
+  ASSERT_EQ(run.code, 0) << run.out;
+  EXPECT_EQ(slurp(dir / "server" / "events.jsonl"), slurp(dir / "run" / "events.jsonl"));
+  const auto events = read_events(dir / "run" / "events.jsonl");
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, vision::EventKind::kLeftBag);
+  EXPECT_EQ(events[1].kind, vision::EventKind::kBagTaken);
+  fs::remove_all(dir);
+}
+
+TEST(DdsProcesses, ServerKilledAndRestartedLosesNothingPublishedAfterItIsBack) {
+  // The camera node runs at 5x real time: left bag at about 4.2 s, bag taken at about 7.1 s.
+  const fs::path dir = temp_dir("restart");
+  const std::string s = session("restart");
+  pid_t server = spawn_vigil({"server", kScenario, "--session", s, "--out", (dir / "a").string(), "--max-seconds", "60"},
+                             dir / "a.log");
+  ASSERT_GT(server, 0);
+  const pid_t cam = spawn_vigil({"camera-node", kScenario, "--camera", "cam_corridor", "--sensor", "truth", "--session", s,
+                                 "--speed", "5", "--duration", "40", "--wait-for-server", "10", "--linger", "3"},
+                                dir / "cam.log");
+  ASSERT_GT(cam, 0);
+  ASSERT_TRUE(wait_for_events(dir / "a" / "events.jsonl", 1, 30)) << slurp(dir / "a.log") << slurp(dir / "cam.log");
+  kill(server, SIGKILL);  // no goodbye
+  wait_exit(server);
+  server = spawn_vigil({"server", kScenario, "--session", s, "--out", (dir / "b").string(), "--max-seconds", "60", "--idle-exit", "3"},
+                       dir / "b.log");
+  ASSERT_GT(server, 0);
+  EXPECT_EQ(wait_exit(cam), 0) << slurp(dir / "cam.log");
+  EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "b.log");
+  const auto before = read_events(dir / "a" / "events.jsonl");
+  const auto after = read_events(dir / "b" / "events.jsonl");
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_EQ(before[0].kind, vision::EventKind::kLeftBag);
+  // The bag was taken after the restart: the new server has it; the left bag comes again from
+  // the camera node's durable history, as the same incident.
+  ASSERT_EQ(after.size(), 2u) << slurp(dir / "b.log");
+  EXPECT_EQ(after[0].kind, vision::EventKind::kLeftBag);
+  EXPECT_EQ(after[0].id, before[0].id);
+  EXPECT_EQ(after[1].kind, vision::EventKind::kBagTaken);
+  EXPECT_GT(after[1].stamp_ns, 30'000'000'000);
+  fs::remove_all(dir);
+}
+
+TEST(DdsProcesses, BadOptionsExitTwoWithTheReason) {
+  Output o = vigil_cmd("camera-node " + kScenario + " --camera cam_nowhere --sensor truth");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("no camera 'cam_nowhere'"), std::string::npos) << o.out;
+  o = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("has no vision sensor"), std::string::npos) << o.out;
+  o = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor --sensor blobs");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("--sensor"), std::string::npos) << o.out;
+  o = vigil_cmd("server " + kScenario + " --dds-config /nonexistent/cyclone.xml --max-seconds 1");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("/nonexistent/cyclone.xml"), std::string::npos) << o.out;
+  o = vigil_cmd("events --session '' --timeout 1");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("session"), std::string::npos) << o.out;
+}
+
+}  // namespace
+}  // namespace vigil

@@ -1,0 +1,313 @@
+// The processes of a multi-process run (chapter 10.6.3: camera PCs, the video server, robots),
+// talking over Cyclone DDS:
+//   vigil camera-node SCENARIO --camera ID   runs the world and that camera's vision sensor and
+//                                            activity rules; publishes its events (camera frame)
+//   vigil server SCENARIO                    the video server: checks, map frame, merging; publishes
+//                                            incidents and writes them to --out/events.jsonl
+//   vigil events                             subscribes to incidents and prints them (a robot's view)
+// All take --session NAME (the DDS partition; processes of one system share it), --dds-domain and
+// --dds-config. Documented in docs/DDS.md.
+#include <signal.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include "plugins/dds_bridge/dds.h"
+#include "plugins/dds_bridge/event_relay.h"
+#include "plugins/dds_bridge/event_server.h"
+#include "plugins/stereo_camera/stereo_camera.h"
+#include "plugins/vision_sensors/vision_sensor.h"
+#include "tools/vigil/commands.h"
+#include "tools/vigil/plugin_search.h"
+#include "world/plugin.h"
+#include "world/runner.h"
+#include "world/world.h"
+
+namespace vigil::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+void catch_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+struct DdsOpts {
+  std::string session = "vigil";
+  uint32_t domain = 0;
+  std::string config;
+};
+
+void add_dds_options(CLI::App* cmd, DdsOpts* o) {
+  cmd->add_option("--session", o->session, "DDS session (partition vigil.NAME) shared by the processes of one system")
+      ->capture_default_str();
+  cmd->add_option("--dds-domain", o->domain, "DDS domain id (0 to 232)")->capture_default_str();
+  cmd->add_option("--dds-config", o->config, "Cyclone DDS XML configuration (default: loopback only; see docs/DDS.md)");
+}
+
+dds::DomainOptions domain_options(const DdsOpts& o) {
+  dds::DomainOptions d;
+  d.domain_id = o.domain;
+  d.session = o.session;
+  if (!o.config.empty()) {
+    auto cfg = dds::read_config(o.config);
+    if (!cfg) throw Exit{report(cfg.error())};
+    d.config = *cfg;
+  }
+  return d;
+}
+
+std::unique_ptr<dds::Participant> participant(const DdsOpts& o) {
+  auto p = dds::Participant::create(domain_options(o));
+  if (!p) throw Exit{report(p.error())};
+  return std::move(*p);
+}
+
+Scenario load_checked(const std::string& file, PluginRegistry* registry) {
+  register_builtin_plugins(*registry);
+  for (const auto& d : plugin_search_path({})) registry->add_search_dir(d);
+  ScenarioContext ctx;
+  ctx.plugin_exists = [registry](const std::string& n) { return registry->exists(n) || sensors::vision_sensor_exists(n); };
+  auto sc = load_scenario(file, ctx);
+  if (!sc) throw Exit{report(sc.error())};
+  return *sc;
+}
+
+// Holds simulated time to at most `speed` times wall time.
+class Pacer : public RunObserver {
+ public:
+  explicit Pacer(double speed) : speed_(speed) {}
+  Status start(const World&, const fs::path&) override {
+    t0_ = std::chrono::steady_clock::now();
+    return Status::Ok();
+  }
+  Status after_step(const World& w) override {
+    if (speed_ <= 0) return Status::Ok();
+    const auto due = t0_ + std::chrono::duration<double>(to_seconds(w.time()) / speed_);
+    std::this_thread::sleep_until(due);
+    return g_stop ? Status(internal_error("stopped by a signal")) : Status::Ok();
+  }
+
+ private:
+  double speed_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+void add_camera_node(CLI::App& app) {
+  struct Opts {
+    std::string scenario, camera, sensor, out;
+    double speed = 0, linger = 2, wait_for_server = 0;
+    std::optional<double> duration;
+    DdsOpts dds;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("camera-node", "Run one camera's vision pipeline and publish its events over DDS");
+  cmd->add_option("scenario", o->scenario, "scenario YAML file")->required();
+  cmd->add_option("--camera", o->camera, "the camera this node serves")->required();
+  cmd->add_option("--sensor", o->sensor, "vision sensor overriding the camera's plugin (truth, planview)");
+  cmd->add_option("--out", o->out, "also write this node's tracks.jsonl and camera_events.jsonl here");
+  cmd->add_option("--duration", o->duration, "simulated seconds overriding the scenario's");
+  cmd->add_option("--speed", o->speed, "run at most this many times real time (0: as fast as possible)")->capture_default_str();
+  cmd->add_option("--wait-for-server", o->wait_for_server, "seconds to wait for a subscriber before starting")->capture_default_str();
+  cmd->add_option("--linger", o->linger, "seconds to stay up after the run, serving durable events to late joiners")
+      ->capture_default_str();
+  add_dds_options(cmd, &o->dds);
+  cmd->callback([o] {
+    catch_signals();
+    PluginRegistry registry;
+    Scenario sc = load_checked(o->scenario, &registry);
+    bool found = false;
+    for (auto& c : sc.cameras) {
+      if (c.id == o->camera) {
+        found = true;
+        if (!o->sensor.empty()) {
+          if (!sensors::vision_sensor_exists(o->sensor))
+            throw Exit{report(bad_input("", 0, "--sensor", "'" + o->sensor + "' is not a vision sensor"))};
+          if (o->sensor != c.plugin) c.params.clear();
+          c.plugin = o->sensor;
+        }
+        if (c.plugin.empty())
+          throw Exit{report(bad_input(sc.file.string(), c.line, "plugin", "camera '" + c.id + "' has no vision sensor: give --sensor truth|planview"))};
+      } else {
+        c.plugin.clear();  // this node serves one camera
+      }
+    }
+    if (!found) throw Exit{report(bad_input(sc.file.string(), 0, "--camera", "no camera '" + o->camera + "' in the scenario"))};
+    auto part = participant(o->dds);
+    auto pub = dds::CameraEventPublisher::create(*part);
+    if (!pub) throw Exit{report(pub.error())};
+    if (o->wait_for_server > 0 && (*pub)->writer().wait_for_readers(1, o->wait_for_server) < 1)
+      std::fprintf(stderr, "camera-node %s: no subscriber after %.1f s; publishing anyway (durable)\n", o->camera.c_str(),
+                   o->wait_for_server);
+    render::CameraRigOptions rig_options;
+    rig_options.video = false;
+    render::CameraRig rig(rig_options);
+    auto host = sensors::VisionSensorHost::create(sc, &rig);
+    if (!host) throw Exit{report(host.error())};
+    int published = 0;
+    dds::CameraEventPublisher* pp = pub->get();
+    (*host)->set_event_sink([pp, &published](const vision::Event& e) {
+      if (Status s = pp->publish(e); !s) return s;
+      ++published;
+      std::printf("%s\n", vision::format_event_json(e).c_str());
+      std::fflush(stdout);
+      return Status::Ok();
+    });
+    Pacer pacer(o->speed);
+    RunOptions ro;
+    ro.out_dir = o->out;
+    ro.duration = o->duration;
+    ro.video = false;
+    ro.observers = {&pacer, host->get()};
+    if (rig.active()) ro.observers.push_back(&rig);
+    auto sum = run_scenario(sc, ro);
+    if (!sum) throw Exit{report(sum.error())};
+    std::fprintf(stderr, "camera-node %s: %.1f s simulated, %d events published (session %s)\n", o->camera.c_str(),
+                 sum->sim_seconds, published, o->dds.session.c_str());
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o->linger);
+    while (!g_stop && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  });
+}
+
+void add_server(CLI::App& app) {
+  struct Opts {
+    std::string scenario, out;
+    double idle_exit = 0, max_seconds = 0, merge_distance = 1.0, merge_time = 5.0;
+    DdsOpts dds;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("server", "The video server: camera events in, incidents in the map frame out, over DDS");
+  cmd->add_option("scenario", o->scenario, "scenario YAML file (its map and camera poses)")->required();
+  cmd->add_option("--out", o->out, "write incidents to DIR/events.jsonl (appended)");
+  cmd->add_option("--idle-exit", o->idle_exit, "exit after this many seconds without camera events, once one came (0: never)")
+      ->capture_default_str();
+  cmd->add_option("--max-seconds", o->max_seconds, "exit after this many seconds (0: run until SIGINT/SIGTERM)")->capture_default_str();
+  cmd->add_option("--merge-distance", o->merge_distance, "m: reports of one kind this close are one incident")->capture_default_str();
+  cmd->add_option("--merge-time", o->merge_time, "s: ... and this close in time")->capture_default_str();
+  add_dds_options(cmd, &o->dds);
+  cmd->callback([o] {
+    catch_signals();
+    PluginRegistry registry;
+    Scenario sc = load_checked(o->scenario, &registry);
+    WorldOptions wo;
+    wo.controllers = false;
+    auto world = World::create(sc, wo);  // for the map
+    if (!world) throw Exit{report(world.error())};
+    std::FILE* out = nullptr;
+    fs::path out_path;
+    if (!o->out.empty()) {
+      std::error_code ec;
+      fs::create_directories(o->out, ec);
+      out_path = fs::path(o->out) / "events.jsonl";
+      out = std::fopen(out_path.c_str(), "ab");
+      if (!out) throw Exit{report(bad_input(out_path.string(), 0, "", "cannot open for appending"))};
+    }
+    auto part = participant(o->dds);
+    dds::MergeParams mp;
+    mp.merge_distance = o->merge_distance;
+    mp.merge_time_s = o->merge_time;
+    auto server = dds::EventServer::create(*part, dds::IncidentMerger(dds::server_cameras(sc), mp, dds::inside_map((*world)->map())));
+    if (!server) throw Exit{report(server.error())};
+    std::fprintf(stderr, "server: up (session %s, %zu cameras)\n", o->dds.session.c_str(), sc.cameras.size());
+    const auto t0 = std::chrono::steady_clock::now();
+    auto last = t0;
+    int received = 0;
+    while (!g_stop) {
+      dds::EventServer::Log log;
+      if (Status s = (*server)->poll(0.1, &log); !s) throw Exit{report(s.error())};
+      const auto now = std::chrono::steady_clock::now();
+      if (log.received) {
+        received += log.received;
+        last = now;
+      }
+      for (const auto& r : log.rejected) std::fprintf(stderr, "server: rejected %s\n", r.c_str());
+      for (const auto& in : log.published) {
+        const std::string line = vision::format_event_json(in.as_event());
+        std::printf("%s\n", line.c_str());
+        if (out) {
+          std::fprintf(out, "%s\n", line.c_str());
+          std::fflush(out);
+        }
+      }
+      std::fflush(stdout);
+      const double up = std::chrono::duration<double>(now - t0).count();
+      if (o->max_seconds > 0 && up >= o->max_seconds) break;
+      if (o->idle_exit > 0 && received > 0 && std::chrono::duration<double>(now - last).count() >= o->idle_exit) break;
+    }
+    if (out) std::fclose(out);
+    std::fprintf(stderr, "server: %d camera events received, %zu incidents\n", received, (*server)->merger().incidents().size());
+  });
+}
+
+int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
+void add_events(CLI::App& app) {
+  struct Opts {
+    int count = 0;
+    double timeout = 0;
+    bool text = false, latency = false;
+    DdsOpts dds;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("events", "Subscribe to the video server's incidents and print them as JSON lines");
+  cmd->add_option("--count", o->count, "exit after this many incidents (0: no limit)")->capture_default_str();
+  cmd->add_option("--timeout", o->timeout, "exit after this many seconds (0: run until SIGINT/SIGTERM)")->capture_default_str();
+  cmd->add_flag("--text", o->text, "print the chapter's string form (\"left bag X Y Z\") instead of JSON");
+  cmd->add_flag("--latency", o->latency,
+                "print receive time minus the event's stamp in ns (stamps taken from CLOCK_MONOTONIC; benchmarks)");
+  add_dds_options(cmd, &o->dds);
+  cmd->callback([o] {
+    catch_signals();
+    auto part = participant(o->dds);
+    auto sub = dds::IncidentSubscriber::create(*part);
+    if (!sub) throw Exit{report(sub.error())};
+    const auto t0 = std::chrono::steady_clock::now();
+    int n = 0;
+    while (!g_stop && (o->count <= 0 || n < o->count)) {
+      std::vector<dds::Incident> got;
+      std::vector<std::string> rejected;
+      if (Status s = (*sub)->poll(0.1, &got, &rejected); !s) throw Exit{report(s.error())};
+      const int64_t now = monotonic_ns();
+      for (const auto& r : rejected) std::fprintf(stderr, "events: rejected %s\n", r.c_str());
+      for (const auto& in : got) {
+        if (o->latency) {
+          std::printf("%lld\n", static_cast<long long>(now - in.stamp_ns));
+        } else if (o->text) {
+          std::printf("%s\n", vision::format_event_string(in.as_event()).c_str());
+        } else {
+          std::printf("%s\n", vision::format_event_json(in.as_event()).c_str());
+        }
+        ++n;
+      }
+      std::fflush(stdout);
+      if (o->timeout > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= o->timeout) break;
+    }
+    if (o->count > 0 && n < o->count) throw Exit{1};
+  });
+}
+
+}  // namespace
+
+void add_node_commands(CLI::App& app) {
+  add_camera_node(app);
+  add_server(app);
+  add_events(app);
+}
+
+}  // namespace vigil::cli
