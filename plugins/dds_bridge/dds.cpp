@@ -208,15 +208,25 @@ Result<std::unique_ptr<Reader>> Reader::create(const Participant& p, Topic topic
   return r;
 }
 
+Reader::~Reader() {
+  if (waitset_ > 0) dds_delete(waitset_);  // the read condition goes with the reader
+}
+
 bool Reader::wait(double timeout_s) {
-  const dds_entity_t ws = dds_create_waitset(dds_get_participant(entity_));
-  if (ws < 0) return false;
-  const dds_entity_t cond = dds_create_readcondition(entity_, DDS_ANY_STATE);
-  dds_waitset_attach(ws, cond, 0);
-  const dds_return_t n = dds_waitset_wait(ws, nullptr, 0, static_cast<dds_duration_t>(timeout_s * 1e9));
-  dds_waitset_detach(ws, cond);
-  dds_delete(cond);
-  dds_delete(ws);
+  if (waitset_ <= 0) {
+    waitset_ = dds_create_waitset(dds_get_participant(entity_));
+    if (waitset_ < 0) {
+      waitset_ = 0;
+      return false;
+    }
+    condition_ = dds_create_readcondition(entity_, DDS_ANY_STATE);
+    if (condition_ < 0 || dds_waitset_attach(waitset_, condition_, 0) < 0) {
+      dds_delete(waitset_);
+      waitset_ = 0;
+      return false;
+    }
+  }
+  const dds_return_t n = dds_waitset_wait(waitset_, nullptr, 0, static_cast<dds_duration_t>(timeout_s * 1e9));
   return n > 0;
 }
 

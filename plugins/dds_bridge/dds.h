@@ -86,6 +86,7 @@ class Writer : public Endpoint {
 
 class Reader : public Endpoint {
  public:
+  ~Reader();
   static Result<std::unique_ptr<Reader>> create(const Participant& p, Topic topic, const TopicQos& qos = {});
   // Waits until data is available or the timeout passes; true when there is data.
   bool wait(double timeout_s);
@@ -96,6 +97,7 @@ class Reader : public Endpoint {
   int writers() const;
 
  private:
+  dds_entity_t waitset_ = 0, condition_ = 0;  // made on the first wait()
   Status take_batch(void** samples, dds_sample_info_t* infos, int max, int* got);
   Status return_loan(void** samples, int got);
 };

@@ -124,6 +124,7 @@ void add_bench_command(CLI::App& app) {
     }
   });
   add_bench_camera_commands(bench);
+  add_bench_dds_commands(bench);
 }
 
 }  // namespace vigil::cli
