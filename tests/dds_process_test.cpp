@@ -25,24 +25,9 @@ namespace vigil {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct Output {
-  int code = -1;
-  std::string out;
-};
-
-Output vigil_cmd(const std::string& args) {
-  const std::string cmd = test::vigil_binary().string() + " " + args + " 2>&1";
-  Output o;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return o;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) o.out.append(buf.data(), n);
-  const int status = pclose(p);
-  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return o;
-}
+using test::Output;
+using test::slurp;
+using test::vigil_cmd;
 
 // Starts `vigil ARGS` in the background with stdout and stderr to `log`.
 pid_t spawn_vigil(const std::vector<std::string>& args, const fs::path& log) {
@@ -65,13 +50,6 @@ int wait_exit(pid_t pid) {
   int status = 0;
   waitpid(pid, &status, 0);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
 }
 
 std::vector<vision::Event> read_events(const fs::path& p) {

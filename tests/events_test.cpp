@@ -20,6 +20,7 @@ namespace vigil::sensors {
 namespace {
 
 namespace fs = std::filesystem;
+using test::slurp;
 
 struct EventRun {
   std::vector<vision::Event> events;
@@ -87,13 +88,6 @@ INSTANTIATE_TEST_SUITE_P(Dis, ShippedScenarioEvents,
                                            Case{"dis_walk_past", 0}, Case{"dis_walk_together", 0},
                                            Case{"dis_occlusion", 0}),
                          [](const auto& info) { return std::string(info.param.scenario); });
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
 
 TEST(RunEvents, SameSeedSameEventsFile) {
   const fs::path a = fs::temp_directory_path() / "vigil_events_seed_a", b = fs::temp_directory_path() / "vigil_events_seed_b";

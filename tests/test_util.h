@@ -1,7 +1,13 @@
 // Helpers shared by the tests: paths to the source tree, the shared data and the built tool.
 #pragma once
 
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 namespace vigil::test {
@@ -12,6 +18,34 @@ inline std::filesystem::path vigil_binary() { return VIGIL_BINARY; }
 // ../shared/data beside the checkout; tests that need it GTEST_SKIP() when it is absent.
 inline std::filesystem::path shared_data() { return VIGIL_SHARED_DATA_DIR; }
 inline bool have_shared_data() { return std::filesystem::exists(shared_data() / "maps"); }
+
+// What a finished `vigil` command printed and its exit code.
+struct Output {
+  int code = -1;
+  std::string out;  // stdout, and stderr too unless asked otherwise
+};
+
+// Runs `vigil ARGS` (a shell command line) and waits for it.
+inline Output vigil_cmd(const std::string& args, bool merge_stderr = true) {
+  const std::string cmd = vigil_binary().string() + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
+  Output o;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return o;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) o.out.append(buf.data(), n);
+  const int status = pclose(p);
+  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return o;
+}
+
+// A whole file as bytes ("" when it cannot be read).
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
 
 }  // namespace vigil::test
 

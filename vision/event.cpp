@@ -1,5 +1,8 @@
 #include "vision/event.h"
 
+#include "common/lines.h"
+#include "vision/json_text.h"
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -22,25 +25,8 @@ constexpr KindNames kKinds[] = {
     {EventKind::kUnauthorisedObject, "unauthorised_object", "allert"},
 };
 
-std::string num3(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.3f", v);
-  std::string s = buf;
-  if (s == "-0.000") s = "0.000";
-  return s;
-}
-
-std::string num4(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  std::string s = buf;
-  if (s == "-0.0000") s = "0.0000";
-  return s;
-}
-
-std::string json_string(const std::string& s) {
-  return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
+std::string num3(double v) { return fixed_number(v, 3); }
+std::string num4(double v) { return fixed_number(v, 4); }
 
 std::string point_json(const Point3& p) {
   std::string s = "[";
@@ -210,19 +196,14 @@ Result<Event> parse_event_json(std::string_view text, const std::string& file, i
 }
 
 Result<std::vector<Event>> read_events_jsonl(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return bad_input(path, 0, "", "cannot open file");
   std::vector<Event> events;
-  std::string text;
-  int line = 0;
-  while (std::getline(f, text)) {
-    ++line;
-    if (!text.empty() && text.back() == '\r') text.pop_back();
-    if (text.find_first_not_of(" \t") == std::string::npos) continue;
+  const Status s = for_each_line(path, [&](std::string_view text, int line) -> Status {
     auto e = parse_event_json(text, path, line);
     if (!e) return e.error();
     events.push_back(std::move(*e));
-  }
+    return Status::Ok();
+  });
+  if (!s) return s.error();
   return events;
 }
 

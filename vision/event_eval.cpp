@@ -1,8 +1,9 @@
 #include "vision/event_eval.h"
 
+#include "common/lines.h"
+
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -28,16 +29,11 @@ void finish(EventScore* s, const std::vector<double>& lat, const std::vector<dou
 
 Result<std::vector<TruthEvent>> load_truth_events(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return bad_input(file, 0, "", "cannot open file");
   std::vector<TruthEvent> out;
-  std::string text;
-  int line = 0;
-  while (std::getline(f, text)) {
-    ++line;
+  const Status st = for_each_line(path, [&](std::string_view text, int line) -> Status {
     // Cheap filter: most lines are ticks.
-    if (text.find("\"type\":\"event\"") == std::string::npos) continue;
-    const auto j = nlohmann::json::parse(text, nullptr, false);
+    if (text.find("\"type\":\"event\"") == std::string_view::npos) return Status::Ok();
+    const auto j = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return bad_input(file, line, "", "not a JSON object");
     TruthEvent e;
     const auto kind = j.find("kind");
@@ -61,7 +57,9 @@ Result<std::vector<TruthEvent>> load_truth_events(const std::filesystem::path& p
         if (v.is_string()) e.people.push_back(v.get<std::string>());
     }
     out.push_back(std::move(e));
-  }
+    return Status::Ok();
+  });
+  if (!st) return st.error();
   return out;
 }
 

@@ -1,5 +1,7 @@
 #include "vision/map_track_eval.h"
 
+#include "common/lines.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -70,21 +72,14 @@ TrackClass track_class_of_kind(std::string_view kind) {
 
 Result<std::vector<GroundTruthTick>> load_ground_truth_ticks(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return bad_input(file, 0, "", "cannot open file");
   std::vector<GroundTruthTick> ticks;
-  std::string text;
-  int line = 0;
-  while (std::getline(f, text)) {
-    ++line;
-    if (!text.empty() && text.back() == '\r') text.pop_back();
-    if (text.find_first_not_of(" \t") == std::string::npos) continue;
-    const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  const Status st = for_each_line(path, [&](std::string_view text, int line) -> Status {
+    const nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
     if (j.is_discarded()) return bad_input(file, line, "", "not valid JSON");
     if (!j.is_object()) return bad_input(file, line, "", "expected a JSON object");
     auto type = get_string(j, "type", file, line, "");
     if (!type) return type.error();
-    if (*type != "tick") continue;
+    if (*type != "tick") return Status::Ok();
     GroundTruthTick tick;
     const auto t = j.find("t_ns");
     if (t == j.end()) return bad_input(file, line, "t_ns", "missing");
@@ -120,8 +115,9 @@ Result<std::vector<GroundTruthTick>> load_ground_truth_ticks(const std::filesyst
       tick.entities.push_back(std::move(ent));
     }
     ticks.push_back(std::move(tick));
-  }
-  if (f.bad()) return bad_input(file, line, "", "cannot read file");
+    return Status::Ok();
+  });
+  if (!st) return st.error();
   return ticks;
 }
 

@@ -1,5 +1,8 @@
 #include "vision/track_io.h"
 
+#include "common/lines.h"
+#include "vision/json_text.h"
+
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -11,18 +14,7 @@ namespace vigil::vision {
 
 namespace {
 
-std::string num4(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  std::string s = buf;
-  if (s == "-0.0000") s = "0.0000";
-  return s;
-}
-
-std::string json_string(const std::string& s) {
-  return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
+std::string num4(double v) { return fixed_number(v, 4); }
 
 struct NumberField {
   const char* key;
@@ -115,20 +107,14 @@ Result<Track> parse_track_json(std::string_view text, const std::string& file, i
 
 Result<std::vector<Track>> load_tracks_jsonl(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return bad_input(file, 0, "", "cannot open file");
   std::vector<Track> tracks;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(f, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.find_first_not_of(" \t") == std::string::npos) continue;
-    auto t = parse_track_json(line, file, line_no);
+  const Status s = for_each_line(path, [&](std::string_view text, int line) -> Status {
+    auto t = parse_track_json(text, file, line);
     if (!t) return t.error();
     tracks.push_back(std::move(*t));
-  }
-  if (f.bad()) return bad_input(file, line_no, "", "cannot read file");
+    return Status::Ok();
+  });
+  if (!s) return s.error();
   return tracks;
 }
 
