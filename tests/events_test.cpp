@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "plugins/dds_bridge/event_relay.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tests/test_util.h"
 #include "vision/event.h"
@@ -96,6 +97,45 @@ TEST(RunEvents, SameSeedSameEventsFile) {
   const std::string ea = slurp(a / "camera_events.jsonl");
   ASSERT_FALSE(ea.empty());
   EXPECT_EQ(sha256_hex(ea), sha256_hex(slurp(b / "camera_events.jsonl")));
+  fs::remove_all(a);
+  fs::remove_all(b);
+}
+
+// vigil run's path: the camera rules publish over DDS to the in-process video server, which
+// writes events.jsonl; the same seed gives the same file, with the incidents in the map frame.
+std::string run_through_dds(const std::string& name, const fs::path& out) {
+  auto sc = load_scenario(test::source_dir() / "scenarios" / (name + ".yaml"));
+  EXPECT_TRUE(sc.ok()) << (sc.ok() ? "" : sc.error().str());
+  if (!sc) return "";
+  for (auto& c : sc->cameras) c.plugin = "truth";
+  auto host = VisionSensorHost::create(*sc, nullptr);
+  EXPECT_TRUE(host.ok());
+  auto relay = dds::DdsEventRelay::create({});
+  EXPECT_TRUE(relay.ok()) << (relay.ok() ? "" : relay.error().str());
+  if (!host || !relay) return "";
+  dds::DdsEventRelay* rp = relay->get();
+  (*host)->set_event_sink([rp](const vision::Event& e) { return rp->publish(e); });
+  RunOptions ro;
+  ro.out_dir = out;
+  ro.video = false;
+  ro.observers = {relay->get(), host->get()};
+  auto sum = run_scenario(*sc, ro);
+  EXPECT_TRUE(sum.ok()) << (sum.ok() ? "" : sum.error().str());
+  EXPECT_EQ((*relay)->incidents().size(), (*host)->events().size());
+  EXPECT_TRUE((*relay)->rejected().empty());
+  return slurp(out / "events.jsonl");
+}
+
+TEST(RunEvents, ThroughDdsTheSameSeedGivesTheSameIncidents) {
+  const fs::path a = fs::temp_directory_path() / "vigil_events_dds_a", b = fs::temp_directory_path() / "vigil_events_dds_b";
+  const std::string ea = run_through_dds("dis_bag_taken", a);
+  ASSERT_FALSE(ea.empty());
+  EXPECT_EQ(sha256_hex(ea), sha256_hex(run_through_dds("dis_bag_taken", b)));
+  auto events = vision::read_events_jsonl((a / "events.jsonl").string());
+  ASSERT_TRUE(events.ok()) << events.error().str();
+  ASSERT_EQ(events->size(), 2u);
+  EXPECT_EQ((*events)[0].id, 1000001u);  // cam_corridor is the scenario's first camera
+  EXPECT_NEAR((*events)[1].map_position.x, 20.9, 0.3);
   fs::remove_all(a);
   fs::remove_all(b);
 }
