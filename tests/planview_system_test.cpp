@@ -131,6 +131,49 @@ TEST(PlanViewSystem, IdentitiesSurviveAPersonWalkingBehindAnother) {
   EXPECT_NE(ids["A"].begin()->first, ids["B"].begin()->first);
 }
 
+// A near person-like block (3 m) in front of a far background (9 m), its outline pixels of
+// mixed depth (6 m, as stereo gives at the discontinuity): with the depth-edge filter the outline
+// leaves the plan view (nothing lands beyond 4.5 m), without it the outline is smeared behind.
+TEST(PlanViewSystem, DepthEdgeFilterDropsMixedDepthOutlinePixels) {
+  CameraPose pose;
+  pose.position = Eigen::Vector3d(0, 0, 2.5);
+  pose.pitch = 15 * M_PI / 180;
+  const StereoCameraModel cam(Intrinsics::from_hfov(320, 240, 60 * M_PI / 180), 0.09, pose);
+  auto far_occupancy = [&](int edge_radius) {
+    PlanViewSystemParams sp;
+    sp.depth_filter.edge_radius = edge_radius;
+    auto sys = PlanViewSystem::create(cam, sp);
+    EXPECT_TRUE(sys.ok());
+    StereoFrame f;
+    f.left = cv::Mat(240, 320, CV_8UC3, cv::Scalar(120, 120, 120));
+    cv::randu(f.left, cv::Scalar::all(100), cv::Scalar::all(140));
+    f.depth = cv::Mat(240, 320, CV_32F, cv::Scalar(9.0f));
+    for (int i = 0; i < 20; ++i) {  // the empty scene: background
+      f.index = i;
+      f.stamp_ns = i * 66'666'667LL;
+      EXPECT_TRUE(sys->process(f).ok());
+    }
+    const cv::Rect block(140, 60, 40, 150), outline(block.x - 2, block.y - 2, block.width + 4, block.height + 4);
+    f.left(outline).setTo(cv::Scalar(30, 30, 200));
+    f.depth(outline).setTo(6.0f);
+    f.depth(block).setTo(3.0f);
+    f.index = 20;
+    f.stamp_ns = 20 * 66'666'667LL;
+    EXPECT_TRUE(sys->process(f).ok());
+    const PlanView& pv = sys->plan_view();
+    EXPECT_GT(pv.points, 1000);  // the block is in the plan view
+    double far = 0;
+    for (int r = 0; r < pv.grid.rows; ++r)
+      for (int c = 0; c < pv.grid.cols; ++c) {
+        const Eigen::Vector2d m = pv.grid.to_map(c, r);
+        if ((m - pv.camera_xy).norm() > 4.5) far += pv.occupancy.at<float>(r, c);
+      }
+    return far;
+  };
+  EXPECT_EQ(far_occupancy(3), 0.0);
+  EXPECT_GT(far_occupancy(0), 0.0);
+}
+
 TEST(PlanViewSystem, FramesWithoutDepthOfAnotherSizeOrOutOfOrderAreErrors) {
   Scenario sc = load("dis_left_bag");
   render::RenderedSourceOptions ro;

@@ -637,6 +637,135 @@ TEST(PlanViewTracker, FramesOutOfOrderOrOfAnotherGridAreErrors) {
   EXPECT_EQ(e.error().key, "template_size");
 }
 
+TEST(PlanViewTracker, MissingTrackIsReportedBrieflyThenKeptForReacquisition) {
+  // Seen on frames 0-9, gone on 10-19, back at the same place from 20.
+  const auto r = run_sequence(synthetic_camera(), {person("p", [](double t) {
+                                const int f = static_cast<int>(std::lround(t * kRate));
+                                return f < 10 || f >= 20 ? std::optional<Vector2d>(Vector2d(4, 0)) : std::nullopt;
+                              })},
+                              30);
+  ASSERT_EQ(r.frames.size(), 30u);
+  ASSERT_EQ(r.frames[9].size(), 1u);
+  const int id = r.frames[9][0].id;
+  const int report = PlanViewTrackerParams{}.report_missed;
+  for (int f = 10; f < 10 + report; ++f) EXPECT_EQ(r.frames[f].size(), 1u) << f;  // coasting, reported
+  for (int f = 10 + report; f < 20; ++f) EXPECT_TRUE(r.frames[f].empty()) << f;   // stale: not reported
+  // Kept all along (max_missed 15): the same identity takes the object back.
+  for (int f = 20; f < 30; ++f) {
+    ASSERT_EQ(r.frames[f].size(), 1u) << f;
+    EXPECT_EQ(r.frames[f][0].id, id) << f;
+  }
+}
+
+TEST(PlanViewTracker, TrackLostInTheOpenIsNotHeldAsOccluded) {
+  // p vanishes in the open at frame 10; from frame 12 q stands between the camera and where p
+  // was. p's track must not be held as occluded by q (it would be reported for seconds).
+  const auto r = run_sequence(
+      synthetic_camera(),
+      {person("p", [](double t) { return t < 10 / kRate ? std::optional<Vector2d>(Vector2d(5.5, 0)) : std::nullopt; }),
+       person("q", [](double t) { return t >= 12 / kRate ? std::optional<Vector2d>(Vector2d(3.5, 0)) : std::nullopt; })},
+      45);
+  ASSERT_EQ(r.frames.size(), 45u);
+  for (int f = 20; f < 45; ++f) EXPECT_EQ(r.frames[f].size(), 1u) << f;  // q only
+  EXPECT_EQ(r.scorer.stats().at("q").ids.size(), 1u);
+  EXPECT_EQ(r.scorer.total_switches(), 0);
+}
+
+// A plan view of one round blob (radius 0.24 m, 1.7 m tall) centred on cell (col, row) of a
+// 4 x 4 m grid, the camera 3 m off its left side.
+PlanView blob_view(int col, int row) {
+  PlanView v;
+  v.grid.x_min = 0.01;
+  v.grid.y_min = 0.01;
+  v.grid.cell = 0.02;
+  v.grid.cols = v.grid.rows = 200;
+  v.occupancy = cv::Mat::zeros(200, 200, CV_32F);
+  cv::circle(v.occupancy, {col, row}, 12, cv::Scalar(2.0), cv::FILLED);
+  v.occupancy_smoothed = v.occupancy.clone();
+  v.height = cv::Mat::zeros(200, 200, CV_32F);
+  v.height.setTo(1.7f, v.occupancy > 0);
+  v.height_masked = v.height.clone();
+  v.mask = v.occupancy > 0;
+  v.active = cv::Rect(0, 0, 200, 200);
+  v.camera_xy = Vector2d(-3, 2);
+  v.camera_height = 2.5;
+  v.smoothing = 1.5;
+  return v;
+}
+
+TEST(PlanViewTracker, NoBirthFromABlobCutByTheGridBorder) {
+  // An object entering across the edge of the plan view: its blob is cut by the border and its
+  // centre lies near it. No track is born from it; with the margin off, one is; a blob inside is.
+  auto frames_with_tracks = [](const PlanView& v, const PlanViewTrackerParams& tp) {
+    auto t = PlanViewTracker::create(v.grid, tp);
+    EXPECT_TRUE(t.ok());
+    int n = 0;
+    for (int f = 0; f < 10; ++f) {
+      auto r = t->update(v, stamp_of(f));
+      EXPECT_TRUE(r.ok());
+      n += r.ok() && !r->empty();
+    }
+    return n;
+  };
+  const PlanView cut = blob_view(196, 100), inside = blob_view(150, 100);
+  EXPECT_EQ(frames_with_tracks(cut, {}), 0);
+  PlanViewTrackerParams off;
+  off.birth_border_margin = 0;
+  EXPECT_EQ(frames_with_tracks(cut, off), 8);  // reported from the third frame
+  EXPECT_EQ(frames_with_tracks(inside, {}), 8);
+}
+
+// A bag standing still and a robot (base and mast) driving across the view right behind it, so
+// close that their plan-view blobs merge for a while.
+std::vector<Mover> robot_passing_bag() {
+  Mover bag{"bag", Vector3d(0.4, 0.2, 0.4), [](double) { return std::optional<Vector2d>(Vector2d(4.0, 0.8)); },
+            std::nullopt};
+  Mover robot{"robot", Vector3d(0.4, 0.41, 0.23),
+              [](double t) { return std::optional<Vector2d>(Vector2d(4.45, -0.4 + 0.4 * t)); },
+              Vector3d(0.04, 0.04, 0.78)};
+  return {bag, robot};
+}
+
+TEST(PlanViewTracker, BagKeepsItsShapeWhileARobotPassesBesideIt) {
+  const auto r = run_sequence(synthetic_camera(), robot_passing_bag(), 105);
+  std::printf("[robot past bag] %s\n", r.scorer.summary().c_str());
+  const auto& bag = r.scorer.stats().at("bag");
+  EXPECT_EQ(bag.ids.size(), 1u);
+  EXPECT_GE(bag.matched, 105 - 3);
+  const int id = *bag.ids.begin();
+  for (size_t f = 0; f < r.frames.size(); ++f)
+    for (const Track& t : r.frames[f])
+      if (t.id == id) {
+        // The merged blob's extent and the robot's mast are not the bag's.
+        EXPECT_LT(t.width, 0.5) << f;
+        EXPECT_LT(t.height, 0.6) << f;
+        EXPECT_EQ(t.cls, TrackClass::kBag) << f;
+      }
+}
+
+TEST(PlanViewTracker, EstablishedClassSurvivesAFewSecondsOfAnotherShape) {
+  // A bag seen for 8 s, then for 2.7 s something makes its blob 0.7 m wide (robot-like), then
+  // it is a bag again: its class stays bag. With a short vote memory it flips.
+  Mover bag{"bag", Vector3d(0.4, 0.2, 0.4), [](double) { return std::optional<Vector2d>(Vector2d(4.0, 0.8)); },
+            std::nullopt};
+  Mover widen{"widen", Vector3d(0.2, 0.7, 0.35), [](double t) {
+                const int f = static_cast<int>(std::lround(t * kRate));
+                return f >= 120 && f < 160 ? std::optional<Vector2d>(Vector2d(4.0, 0.8)) : std::nullopt;
+              },
+              std::nullopt};
+  auto classes = [&](const PlanViewTrackerParams& tp) {
+    const auto r = run_sequence(synthetic_camera(), {bag, widen}, 175, tp);
+    std::set<TrackClass> seen;
+    for (size_t f = 0; f < r.frames.size(); ++f)
+      for (const Track& t : r.frames[f]) seen.insert(t.cls);
+    return seen;
+  };
+  EXPECT_EQ(classes({}), std::set<TrackClass>{TrackClass::kBag});
+  PlanViewTrackerParams short_memory;
+  short_memory.class_vote_decay = 0.9;
+  EXPECT_TRUE(classes(short_memory).count(TrackClass::kRobot));
+}
+
 TEST(PlanViewTracker, ClassesFromHeightAndWidth) {
   EXPECT_EQ(classify_track(1.75, 0.45), TrackClass::kPerson);
   EXPECT_EQ(classify_track(1.3, 0.4), TrackClass::kPerson);

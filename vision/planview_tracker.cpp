@@ -40,6 +40,7 @@ struct Blob {
   double cx = 0, cy = 0;     // centre of mass, cells
   double max_height = 0;     // m
   double sxx = 0, sxy = 0, syy = 0;  // occupancy-weighted second moments (cells^2, about the origin)
+  bool on_border = false;    // a cell of it lies on the grid's outermost rows or columns
 };
 
 }  // namespace
@@ -74,6 +75,7 @@ Status PlanViewTrackerParams::validate() const {
   if (min_hits < 1) return param_error("min_hits", "must be at least 1");
   if (max_missed < 1) return param_error("max_missed", "must be at least 1");
   if (max_occluded < 0) return param_error("max_occluded", "must be >= 0");
+  if (report_missed < 0) return param_error("report_missed", "must be >= 0");
   if (!(gate >= 0) || !std::isfinite(gate)) return param_error("gate", "must be >= 0 (0 = none)");
   if (!(occluded_position_noise > 0)) return param_error("occluded_position_noise", "must be positive");
   if (!(reacquire_max >= 0)) return param_error("reacquire_max", "must be >= 0");
@@ -86,6 +88,9 @@ Status PlanViewTrackerParams::validate() const {
     return param_error("visible_surface_offset", "must be in [0, 2] m, got " + num(visible_surface_offset));
   if (!nonneg(birth_min_area)) return param_error("birth_min_area", "must be >= 0");
   if (!nonneg(birth_min_height)) return param_error("birth_min_height", "must be >= 0");
+  if (!(class_vote_decay > 0 && class_vote_decay <= 1))
+    return param_error("class_vote_decay", "must be in (0, 1], got " + num(class_vote_decay));
+  if (!nonneg(birth_border_margin)) return param_error("birth_border_margin", "must be >= 0");
   if (!nonneg(explain_distance)) return param_error("explain_distance", "must be >= 0");
   if (!nonneg(reacquire_distance)) return param_error("reacquire_distance", "must be >= 0");
   if (!pos(accel_noise)) return param_error("accel_noise", "must be positive");
@@ -111,6 +116,8 @@ struct PlanViewTracker::Impl {
     bool missed = false;   // this frame
     bool updated = false;  // this frame
     bool born = false;     // this frame
+    bool hidden = false;   // this frame: missed while occluded (see occluded())
+    int label = 0;         // this frame: blob under the predicted position (0: none)
     double score = std::numeric_limits<double>::quiet_NaN();
     double confidence = 0;
     std::array<double, 4> votes{};
@@ -201,6 +208,7 @@ struct PlanViewTracker::Impl {
         b.sxx += o[k] * col * col;
         b.sxy += o[k] * col * row;
         b.syy += o[k] * static_cast<double>(row) * row;
+        if (row == 0 || row == grid.rows - 1 || col == 0 || col == grid.cols - 1) b.on_border = true;
       }
     }
     for (Blob& b : blobs) {
@@ -211,6 +219,15 @@ struct PlanViewTracker::Impl {
     }
   }
 
+  // Distance (m) from cell position c to the nearest edge of the grid.
+  double border_distance(const Eigen::Vector2d& c) const {
+    const double cells = std::min({c.x() + 0.5, c.y() + 0.5, grid.cols - 0.5 - c.x(), grid.rows - 0.5 - c.y()});
+    return std::max(0.0, cells) * grid.cell;
+  }
+
+  int label_at_cell(const Eigen::Vector2d& c) const {
+    return label_at(static_cast<int>(std::lround(c.x())), static_cast<int>(std::lround(c.y())));
+  }
   int label_at(int col, int row) const {
     if (labels.empty()) return 0;
     const int r = row - label_origin.y, k = col - label_origin.x;
@@ -322,10 +339,9 @@ struct PlanViewTracker::Impl {
     return grid.to_cell(m.x(), m.y());
   }
 
-  // Width of the blob at `c`: the blob under the centre, or the strongest one near it; the
-  // occupancy-weighted extent (see weighted_extent) of its cells within the template window.
-  // Negative when no blob is there.
-  double width_near(const Eigen::Vector2d& c) const {
+  // Label of the blob at cell `c`: the blob under it, or the strongest one within core_sigma
+  // (0: none).
+  int blob_near(const Eigen::Vector2d& c) const {
     const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
     int label = label_at(ci, cj);
     if (!label) {
@@ -342,6 +358,24 @@ struct PlanViewTracker::Impl {
           }
         }
     }
+    return label;
+  }
+
+  // True when the blob `label` also lies under another live track's predicted position: a merged
+  // blob of several objects (a robot passing by a bag, a person by another).
+  bool shared_blob(const Trk& t, int label) const {
+    if (!label) return false;
+    for (const Trk& o : tracks)
+      if (&o != &t && o.label == label) return true;
+    return false;
+  }
+
+  // Width of the blob at `c`: the blob under the centre, or the strongest one near it; the
+  // occupancy-weighted extent (see weighted_extent) of its cells within the template window.
+  // Negative when no blob is there.
+  double width_near(const Eigen::Vector2d& c) const {
+    const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+    const int label = blob_near(c);
     if (!label) return -1;
     double w = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
     for (int dj = -half; dj < T - half; ++dj)
@@ -489,7 +523,7 @@ struct PlanViewTracker::Impl {
 
   void vote(Trk& t) {
     const TrackClass c = classify_track(t.x(4), t.x(5), p.classes);
-    for (double& v : t.votes) v *= 0.97;
+    for (double& v : t.votes) v *= p.class_vote_decay;
     t.votes[static_cast<int>(c)] += 1.0;
     int best = 0;
     for (int k = 1; k < 4; ++k)
@@ -499,16 +533,24 @@ struct PlanViewTracker::Impl {
 
   // Measures the object at cell `c` (centre of mass, height, width) and updates the track.
   // False (and nothing changed) when the measurement fails the gate.
+  // On a blob shared with another track (see shared_blob) only the position is measured: the
+  // blob's extent and its highest point near the centre may be the other object's, and would
+  // drag the shape (and so the class) and the templates.
   bool measure_and_update(Trk& t, const Eigen::Vector2d& start, double rate, bool gated) {
     const Eigen::Vector2d c = centre_of_mass(start);
     const Eigen::Vector2d m = grid.to_map(c.x(), c.y());
-    double w = width_near(c);
+    const bool shared = shared_blob(t, blob_near(c));
+    double w = shared ? -1 : width_near(c);
     if (w < 0) w = t.x(5);
     const Eigen::Vector2d centre = m + surface_offset(m, w);
-    const Vec4 z(centre.x(), centre.y(), height_near(c), w);
+    const Vec4 z(centre.x(), centre.y(), shared ? t.x(4) : height_near(c), w);
     if (gated && t.confirmed && !passes_gate(t, z)) return false;
-    correct(t, z);
-    cut_templates(t, c, rate);
+    if (shared) {
+      if (!correct_position(t, centre, p.position_noise)) return false;
+    } else {
+      correct(t, z);
+      cut_templates(t, c, rate);
+    }
     add_claim(c);
     t.updated = true;
     t.missed = false;
@@ -605,7 +647,9 @@ struct PlanViewTracker::Impl {
       if (t.x.segment<2>(2).norm() < p.coast_hold_speed || t.cls == TrackClass::kBag) t.x.segment<2>(2).setZero();
       t.x(2) *= decay;
       t.x(3) *= decay;
-      if (t.confirmed && occluded(t))
+      // Lost in the open (a miss not occluded): missing until matched again, whatever passes.
+      t.hidden = t.confirmed && t.misses == 0 && occluded(t);
+      if (t.hidden)
         ++t.occluded;
       else
         ++t.misses;
@@ -654,6 +698,7 @@ struct PlanViewTracker::Impl {
         nearest->confidence = 0.5;
         continue;
       }
+      if (b.on_border && border_distance(bc) < p.birth_border_margin) continue;  // partly outside: not yet
       Trk t;
       t.id = next_id++;
       t.x << bm.x(), bm.y(), 0, 0, b.max_height, bw;
@@ -729,9 +774,10 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   // Predict; tracks whose prediction left the grid are gone.
   for (auto& t : m.tracks) {
     m.predict(t, dt);
-    t.updated = t.born = t.missed = false;
+    t.updated = t.born = t.missed = t.hidden = false;
   }
   std::erase_if(m.tracks, [&](const Impl::Trk& t) { return !grid_.contains(t.x(0), t.x(1)); });
+  for (auto& t : m.tracks) t.label = m.label_at_cell(m.template_cell(t));
 
   // Correspondence, oldest and surest first.
   std::vector<size_t> order(m.tracks.size());
@@ -748,12 +794,14 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   m.count_misses(dt);
 
   std::erase_if(m.tracks, [&](const Impl::Trk& t) {
-    return (!t.confirmed && t.misses > 0) || t.misses >= params_.max_missed || t.occluded > params_.max_occluded;
+    return (!t.confirmed && t.misses > 0) || t.misses >= params_.max_missed ||
+           t.occluded > params_.max_occluded;
   });
 
   std::vector<Track> out;
   for (const auto& t : m.tracks) {
-    if (!t.confirmed) continue;
+    // A missing track's position soon goes stale: reported for report_missed frames only.
+    if (!t.confirmed || (t.missed && !t.hidden && t.misses > params_.report_missed)) continue;
     Track r;
     r.stamp_ns = stamp_ns;
     r.camera = params_.camera;

@@ -24,7 +24,21 @@
 // explains are born as new (tentative) tracks, reported once matched min_hits times; a coasting
 // track (missed frames) near an unexplained blob re-acquires it instead (so a person who bends or
 // is half occluded keeps their id); a track is deleted after max_missed frames without a match
-// (a tentative one at its first miss), or when its prediction leaves the grid.
+// (a tentative one at its first miss), or when its prediction leaves the grid. A missing track is
+// reported for report_missed frames only (its position is a guess that soon goes stale), then kept
+// unreported until deleted, ready to re-acquire its object.
+//
+// A blob touching the border of the grid with its centre of mass within birth_border_margin of
+// it is an object only partly inside the plan view (most often one entering across the far range
+// limit, where stereo depth is poorest and smears the blob out to the border): its centre, shape
+// and templates are those of the cut part, and a track born on it stays on the border while the
+// object walks in. No track is born from such a blob; the object gets its track once it is
+// inside (a blob well inside that only reaches the border by a thin tail of depth noise is
+// fine), and a track already following an object keeps it up to and across the border.
+//
+// Occlusion explains a disappearance only when the occluder was there when it happened: a track
+// lost in the open (its first missed frame not occluded) stays missing even if a track later
+// passes in front of it (often the same object re-found by a new track).
 //
 // Occlusion (figure 10.6): a track missed while another track seen this frame stands between it
 // and the camera (in the plan view: nearer the camera, across its line of sight, and tall enough
@@ -37,9 +51,12 @@
 // bag (held still: bags do not walk, and slow apparent motion is mostly blob transients).
 //
 // Each track has a class from its height and width (person, bag, robot; classify_track), voted
-// over its frames with a slow decay. Positions: the measured centre of mass is moved away from the
-// camera by visible_surface_offset (see the parameter); the templates stay centred on the centre
-// of mass. A measurement failing the Mahalanobis gate on position and height is not used.
+// over its frames with a slow decay (class_vote_decay). Positions: the measured centre of mass is
+// moved away from the camera by visible_surface_offset (see the parameter); the templates stay
+// centred on the centre of mass. A measurement failing the Mahalanobis gate on position and
+// height is not used. On a blob that also lies under another track's prediction (two objects
+// merged, such as a robot passing a bag) only the position is measured: the blob's extent and
+// highest point may be the other object's.
 //
 // Frames must come in increasing stamp order and with the grid the tracker was made for;
 // anything else is an Error (kBadInput) and leaves the tracker as it was.
@@ -97,12 +114,16 @@ struct PlanViewTrackerParams {
   int min_hits = 3;               // matches before a track is reported
   int max_missed = 15;            // frames without a match before a track is deleted...
   int max_occluded = 75;          // ...or frames while occluded (see the header comment)
+  int report_missed = 4;          // a missing track (not occluded) is reported for at most this many
+                                  // frames, then kept unreported (for re-acquisition) to max_missed
   double coast_hold_speed = 0.3;  // m/s: a coasting track slower than this, or a bag, is held still
   double coast_velocity_decay = 0;  // s, time constant of the velocity's decay while coasting (0 = none)
   double occluded_match = 0.25;   // an occluded track is fully updated under this * track_threshold;
   double occluded_position_noise = 0.1;  // above, only its position, with this noise (m)
   double birth_min_area = 0.04;   // m^2 of visible surface (occupancy sum * cell^2) for a new track
   double birth_min_height = 0.1;  // m, tallest cell of a blob for a new track
+  double birth_border_margin = 0.5;  // m: no birth from a blob touching the grid's border with its
+                                     // centre this close to it (see the header comment; 0 = off)
   double explain_distance = 0.3;  // m: a blob whose centre is this close to a track is that track's
   double reacquire_distance = 0.6;  // m: a coasting track this close to an unexplained blob takes it,
   double reacquire_max = 1.0;       // or up to this far as its prediction's 3 sigma grows
@@ -114,6 +135,10 @@ struct PlanViewTrackerParams {
   double shape_measurement_noise = 0.05;  // m, measured height and width
   double initial_velocity_sigma = 1.0;    // m/s at birth
   ClassifierParams classes;
+  // Per frame, the decay of the class votes: their memory is about 1 / (1 - decay) frames, long
+  // enough that a few seconds of a merged blob (a robot passing a bag) do not flip an established
+  // class, short enough that a wrong first impression (an object entering half seen) is corrected.
+  double class_vote_decay = 0.99;
   // Checks every field; the error's key is the field's name.
   Status validate() const;
 };
