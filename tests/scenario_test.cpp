@@ -627,3 +627,28 @@ TEST_F(ScenarioTest, FuzzedScenariosNeverCrashOrHang) {
 
 }  // namespace
 }  // namespace vigil
+
+namespace vigil {
+namespace {
+
+TEST(FindCamera, ReturnsTheCameraOrListsTheKnownOnes) {
+  Scenario sc;
+  sc.file = "s.yaml";
+  CameraSpec a, b;
+  a.id = "cam_a";
+  b.id = "cam_b";
+  sc.cameras = {a, b};
+  auto found = find_camera(sc, "cam_b");
+  ASSERT_TRUE(found.ok());
+  EXPECT_EQ((*found)->id, "cam_b");
+  auto missing = find_camera(sc, "cam_c", "--camera");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().key, "--camera");
+  EXPECT_EQ(missing.error().file, "s.yaml");
+  EXPECT_NE(missing.error().message.find("cameras: cam_a, cam_b"), std::string::npos) << missing.error().message;
+  sc.cameras.clear();
+  EXPECT_NE(find_camera(sc, "x").error().message.find("cameras: none"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace vigil

@@ -702,4 +702,14 @@ Result<Scenario> load_scenario(const std::filesystem::path& path, const Scenario
   return parse_scenario(text, path, ctx);
 }
 
+Result<const CameraSpec*> find_camera(const Scenario& scenario, const std::string& id, const std::string& key) {
+  std::string known;
+  for (const CameraSpec& c : scenario.cameras) {
+    if (c.id == id) return &c;
+    known += (known.empty() ? "" : ", ") + c.id;
+  }
+  return bad_input(scenario.file.string(), 0, key,
+                   "no camera '" + id + "' in the scenario (cameras: " + (known.empty() ? "none" : known) + ")");
+}
+
 }  // namespace vigil

@@ -143,6 +143,10 @@ struct ScenarioContext {
 
 // Parses and checks a scenario file. Relative paths resolve against the file's folder.
 Result<Scenario> load_scenario(const std::filesystem::path& path, const ScenarioContext& ctx = {});
+
+// The camera with this id; otherwise an error naming the scenario file, the camera's line is
+// unknown so `key` (e.g. "--camera") names what was asked, and the message lists the cameras.
+Result<const CameraSpec*> find_camera(const Scenario& scenario, const std::string& id, const std::string& key = "camera");
 // Parses a scenario from text (`file` is used in messages and to resolve relative paths).
 Result<Scenario> parse_scenario(const std::string& text, const std::filesystem::path& file,
                                 const ScenarioContext& ctx = {});

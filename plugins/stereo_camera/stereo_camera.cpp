@@ -8,26 +8,14 @@
 
 namespace vigil::render {
 
-namespace {
-
-Error camera_not_found(const Scenario& scenario, const std::string& camera_id) {
-  std::string known;
-  for (const auto& c : scenario.cameras) known += (known.empty() ? "" : ", ") + c.id;
-  return bad_input(scenario.file.string(), 0, "camera",
-                   "no camera '" + camera_id + "' in the scenario (cameras: " + (known.empty() ? "none" : known) + ")");
-}
-
-}  // namespace
-
 // ---- RenderedStereoSource ----
 
 Result<std::unique_ptr<RenderedStereoSource>> RenderedStereoSource::open(const Scenario& scenario,
                                                                          const std::string& camera_id,
                                                                          const RenderedSourceOptions& options) {
-  const CameraSpec* spec = nullptr;
-  for (const auto& c : scenario.cameras)
-    if (c.id == camera_id) spec = &c;
-  if (!spec) return camera_not_found(scenario, camera_id);
+  auto found = find_camera(scenario, camera_id);
+  if (!found) return found.error();
+  const CameraSpec* spec = *found;
   std::unique_ptr<RenderedStereoSource> src(new RenderedStereoSource());
   src->camera_ = *spec;
   src->scenario_name_ = scenario.name;

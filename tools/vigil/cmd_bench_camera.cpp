@@ -98,10 +98,9 @@ void add_bench_camera_commands(CLI::App* bench) {
     }
     auto scenario = load_scenario(ro->scenario);
     if (!scenario) throw Exit{report(scenario.error())};
-    const CameraSpec* cam = nullptr;
-    for (const auto& c : scenario->cameras)
-      if (c.id == ro->camera) cam = &c;
-    if (!cam) throw Exit{report(bad_input(ro->scenario, 0, "--camera", "no camera '" + ro->camera + "' in the scenario"))};
+    auto found = find_camera(*scenario, ro->camera, "--camera");
+    if (!found) throw Exit{report(found.error())};
+    const CameraSpec* cam = *found;
     WorldOptions wo;
     wo.plugin_dirs = plugin_search_path();
     auto world = World::create(*scenario, wo);

@@ -257,10 +257,9 @@ void run_map_eval(const Opts& o) {
     ScenarioContext ctx;  // plugin names are not checked: only the camera's pose is needed
     auto sc = load_scenario(o.scenario, ctx);
     if (!sc) throw Exit{report(sc.error())};
-    const CameraSpec* cam = nullptr;
-    for (const CameraSpec& c : sc->cameras)
-      if (c.id == o.camera) cam = &c;
-    if (!cam) throw Exit{report(bad_input(o.scenario, 0, "cameras", "no camera '" + o.camera + "'"))};
+    auto found = find_camera(*sc, o.camera, "--camera");
+    if (!found) throw Exit{report(found.error())};
+    const CameraSpec* cam = *found;
     if (o.camera_xy.empty()) {
       eo.camera_x = cam->position.x;
       eo.camera_y = cam->position.y;

@@ -128,10 +128,9 @@ void add_camera_node(CLI::App& app) {
     catch_signals();
     PluginRegistry registry;
     Scenario sc = load_checked(o->scenario, &registry);
-    bool found = false;
+    if (auto found = find_camera(sc, o->camera, "--camera"); !found) throw Exit{report(found.error())};
     for (auto& c : sc.cameras) {
       if (c.id == o->camera) {
-        found = true;
         if (!o->sensor.empty()) {
           if (!sensors::vision_sensor_exists(o->sensor))
             throw Exit{report(bad_input("", 0, "--sensor", "'" + o->sensor + "' is not a vision sensor"))};
@@ -144,7 +143,6 @@ void add_camera_node(CLI::App& app) {
         c.plugin.clear();  // this node serves one camera
       }
     }
-    if (!found) throw Exit{report(bad_input(sc.file.string(), 0, "--camera", "no camera '" + o->camera + "' in the scenario"))};
     auto part = participant(o->dds);
     auto pub = dds::CameraEventPublisher::create(*part);
     if (!pub) throw Exit{report(pub.error())};

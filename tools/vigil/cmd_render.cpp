@@ -89,16 +89,9 @@ void add_render_command(CLI::App& app) {
     ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n) || sensors::vision_sensor_exists(n); };
     auto scenario = load_scenario(opts->scenario, ctx);
     if (!scenario) throw Exit{report(scenario.error())};
-    const CameraSpec* spec = nullptr;
-    for (const auto& c : scenario->cameras)
-      if (c.id == opts->camera) spec = &c;
-    if (!spec) {
-      std::string known;
-      for (const auto& c : scenario->cameras) known += (known.empty() ? "" : ", ") + c.id;
-      throw Exit{report(bad_input(opts->scenario, 0, "--camera",
-                                  "no camera '" + opts->camera + "' in the scenario (cameras: " +
-                                      (known.empty() ? "none" : known) + ")"))};
-    }
+    auto found = find_camera(*scenario, opts->camera, "--camera");
+    if (!found) throw Exit{report(found.error())};
+    const CameraSpec* spec = *found;
     if (opts->at && *opts->at > scenario->duration) {
       char end[64];
       std::snprintf(end, sizeof end, "%g s", scenario->duration);
