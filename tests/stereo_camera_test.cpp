@@ -183,6 +183,33 @@ TEST(CameraRig, RendersEveryCameraAtItsRateFeedsConsumersAndWritesVideos) {
   fs::remove_all(out);
 }
 
+TEST(CameraRig, CamerasAtDifferentRatesTickEachAtItsOwn) {
+  Scenario sc = load("dis_left_bag");
+  sc.duration = 1.0;
+  for (auto& c : sc.cameras) {
+    if (c.id == "cam_lab") c.rate_hz = 5;  // cam_corridor stays at 15 Hz
+    c.width = 160;                          // small frames: the test is about timing
+    c.height = 120;
+  }
+  std::map<std::string, std::vector<SimTime>> stamps;
+  CameraRigOptions o;
+  o.video = false;
+  CameraRig rig(o);
+  rig.add_consumer("", [&](const CameraSpec& cam, const vision::StereoFrame& f, const World& w) {
+    EXPECT_EQ(f.stamp_ns, w.time());
+    stamps[cam.id].push_back(f.stamp_ns);
+    return Status::Ok();
+  });
+  RunOptions ro;
+  ro.video = false;
+  ro.observers = {&rig};
+  ASSERT_TRUE(run_scenario(sc, ro).ok());
+  // 0, 0.2, ..., 1.0 s: 6 frames at 5 Hz; 16 at 15 Hz.
+  ASSERT_EQ(stamps["cam_lab"].size(), 6u);
+  for (size_t i = 0; i < 6; ++i) EXPECT_EQ(stamps["cam_lab"][i], static_cast<SimTime>(i) * 200'000'000);
+  EXPECT_EQ(stamps["cam_corridor"].size(), 16u);
+}
+
 TEST(CameraRig, ConsumerErrorsStopTheRun) {
   Scenario sc = load("dis_left_bag");
   sc.duration = 1.0;
