@@ -162,6 +162,23 @@ TEST(Cli, RunWithAVisionSensorOnACameraWritesTracks) {
   EXPECT_NE(wrong.out.find("not a vision sensor"), std::string::npos) << wrong.out;
 }
 
+TEST(Cli, RunWithSensorOnEveryCameraWritesEventsAndEvalScoresThem) {
+  const fs::path out = temp_dir("sensor_run");
+  Output o = vigil_cmd("run " + scenario("dis_bag_taken").string() + " --sensor truth --out " + out.string() + " --no-video --quiet");
+  ASSERT_EQ(o.code, 0) << o.out;
+  for (const char* f : {"tracks.jsonl", "camera_events.jsonl", "events.jsonl"}) EXPECT_TRUE(fs::exists(out / f)) << f;
+  o = vigil_cmd("eval " + out.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("bag_taken"), std::string::npos) << o.out;
+  const auto e = nlohmann::json::parse(slurp(out / "eval.json"))["events"];
+  EXPECT_EQ(e["truth"], 2);
+  EXPECT_EQ(e["matched"], 2);
+  EXPECT_DOUBLE_EQ(e["precision"].get<double>(), 1.0);
+  o = vigil_cmd("run " + scenario("dis_bag_taken").string() + " --sensor blobs --out " + out.string() + " --no-video --quiet");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("--sensor: 'blobs' is not a vision sensor"), std::string::npos) << o.out;
+}
+
 TEST(Cli, TrackRunsThePlanViewPipelineOnARenderedSource) {
   const fs::path out = temp_dir("track");
   const Output o = vigil_cmd("track --source 'render:" + scenario("dis_left_bag").string() +

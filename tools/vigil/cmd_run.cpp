@@ -23,6 +23,7 @@ void add_run_command(CLI::App& app) {
     bool no_video = false, quiet = false;
     std::vector<std::string> plugin_paths;
     uint32_t dds_domain = 0;
+    std::string sensor;
     std::string dds_config;
   };
   auto opts = std::make_shared<Opts>();
@@ -34,6 +35,8 @@ void add_run_command(CLI::App& app) {
   cmd->add_flag("--no-video", opts->no_video, "do not write topdown.avi, topdown.png or the camera videos");
   cmd->add_flag("--quiet,-q", opts->quiet, "no progress output");
   cmd->add_option("--plugin-path", opts->plugin_paths, "extra folder to search for plugin libraries");
+  cmd->add_option("--sensor", opts->sensor,
+                  "attach this vision sensor (truth, planview) to every camera that has none in the scenario");
   cmd->add_option("--dds-domain", opts->dds_domain, "DDS domain id for the events (0 to 232)")->capture_default_str();
   cmd->add_option("--dds-config", opts->dds_config, "Cyclone DDS XML configuration (default: loopback only)");
   cmd->callback([opts] {
@@ -45,6 +48,15 @@ void add_run_command(CLI::App& app) {
     ctx.plugin_exists = [&](const std::string& n) { return registry.exists(n) || sensors::vision_sensor_exists(n); };
     auto scenario = load_scenario(opts->scenario, ctx);
     if (!scenario) throw Exit{report(scenario.error())};
+    if (!opts->sensor.empty()) {
+      if (!sensors::vision_sensor_exists(opts->sensor)) {
+        std::string known;
+        for (const auto& n : sensors::vision_sensor_names()) known += (known.empty() ? "" : ", ") + n;
+        throw Exit{report(bad_input("", 0, "--sensor", "'" + opts->sensor + "' is not a vision sensor (" + known + ")"))};
+      }
+      for (auto& c : scenario->cameras)
+        if (c.plugin.empty()) c.plugin = opts->sensor;
+    }
     RunOptions ro;
     ro.out_dir = opts->out.empty() ? std::filesystem::path("runs") / scenario->name : std::filesystem::path(opts->out);
     ro.seed = opts->seed;
