@@ -87,7 +87,7 @@ TEST(DdsProcesses, CameraNodeServerAndLateSubscriberMatchVigilRun) {
   const fs::path dir = temp_dir("three");
   const std::string s = session("three");
   const pid_t server = spawn_vigil({"server", kScenario, "--session", s, "--out", (dir / "server").string(), "--max-seconds", "60",
-                                    "--idle-exit", "4"},
+                                    "--idle-exit", "8"},
                                    dir / "server.log");
   ASSERT_GT(server, 0);
   const Output cam = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor --sensor truth --session " + s +
