@@ -140,6 +140,45 @@ TEST(RunEvents, ThroughDdsTheSameSeedGivesTheSameIncidents) {
   fs::remove_all(b);
 }
 
+// The whole rendered path on one scenario, as `vigil run --sensor planview` runs it: OSMesa
+// frames, SGBM disparity, the plan-view tracker, the rules, DDS, the server. About half a minute.
+TEST(RenderedEvents, LeftBagFromSgbmPlanViewTracksIsReportedInTime) {
+  auto sc = load_scenario(test::source_dir() / "scenarios" / "dis_left_bag.yaml");
+  ASSERT_TRUE(sc.ok()) << sc.error().str();
+  sc->duration = 26;  // the left bag is due at 20.9 s
+  for (auto& c : sc->cameras)
+    if (c.id == "cam_corridor") c.plugin = "planview";  // SGBM disparity by default
+  render::CameraRigOptions rig_options;
+  rig_options.video = false;
+  render::CameraRig rig(rig_options);
+  auto host = VisionSensorHost::create(*sc, &rig);
+  ASSERT_TRUE(host.ok()) << host.error().str();
+  auto relay = dds::DdsEventRelay::create({});
+  ASSERT_TRUE(relay.ok()) << relay.error().str();
+  dds::DdsEventRelay* rp = relay->get();
+  (*host)->set_event_sink([rp](const vision::Event& e) { return rp->publish(e); });
+  const fs::path out = fs::temp_directory_path() / "vigil_events_rendered";
+  RunOptions ro;
+  ro.out_dir = out;
+  ro.video = false;
+  ro.observers = {relay->get(), host->get(), &rig};
+  auto sum = run_scenario(*sc, ro);
+  ASSERT_TRUE(sum.ok()) << sum.error().str();
+  auto truth = vision::load_truth_events(out / "ground_truth.jsonl");
+  ASSERT_TRUE(truth.ok());
+  ASSERT_EQ(truth->size(), 1u);
+  auto reports = vision::read_events_jsonl((out / "events.jsonl").string());
+  ASSERT_TRUE(reports.ok()) << reports.error().str();
+  auto ev = vision::evaluate_events(*truth, *reports);
+  ASSERT_TRUE(ev.ok());
+  EXPECT_EQ(ev->total.recall, 1.0);
+  EXPECT_EQ(ev->total.precision, 1.0) << slurp(out / "events.jsonl");
+  ASSERT_EQ(ev->matches.size(), 1u);
+  EXPECT_LE(ev->matches[0].latency_s, 2.0);
+  EXPECT_LE(ev->matches[0].error_m, 0.3);
+  fs::remove_all(out);
+}
+
 TEST(RunEvents, MarkedObjectsAreTheScenariosUnauthorisedOnes) {
   auto sc = load_scenario(test::source_dir() / "scenarios" / "dis_lab_unauthorised.yaml");
   ASSERT_TRUE(sc.ok()) << sc.error().str();
