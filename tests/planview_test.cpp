@@ -715,6 +715,39 @@ TEST(PlanViewTracker, NoBirthFromABlobCutByTheGridBorder) {
   EXPECT_EQ(frames_with_tracks(inside, {}), 8);
 }
 
+TEST(PlanViewTracker, TrackMeasuresTheCentreOfASmearedBlobNotTheEndItWasOn) {
+  // Stereo at long range smears a person along the line of sight into a plateau of occupancy. A
+  // person's blob (camera to the left, looking along +x) starts round at col 56, then grows away
+  // from the camera, 2 cells a frame, into a uniform strip from col 46 to col 84 (its centre at
+  // col 65, 0.18 m on), then stays. With measure_blob_centre the track measures the blob's centre,
+  // not the end it was born on (a local mean shift stops anywhere on a plateau).
+  PlanView v = blob_view(56, 100);
+  PlanViewTrackerParams tp;
+  tp.measure_blob_centre = true;
+  auto t = PlanViewTracker::create(v.grid, tp);
+  ASSERT_TRUE(t.ok());
+  std::vector<Track> last;
+  for (int f = 0; f < 40; ++f) {
+    if (f >= 5) {
+      v.occupancy.setTo(0);
+      const int end = std::min(84, 68 + 2 * (f - 4));
+      cv::rectangle(v.occupancy, cv::Point(46, 88), cv::Point(end, 112), cv::Scalar(2.0), cv::FILLED);
+      v.occupancy_smoothed = v.occupancy.clone();
+      v.height.setTo(0);
+      v.height.setTo(1.7f, v.occupancy > 0);
+      v.height_masked = v.height.clone();
+      v.mask = v.occupancy > 0;
+    }
+    auto r = t->update(v, stamp_of(f));
+    ASSERT_TRUE(r.ok());
+    last = *r;
+  }
+  ASSERT_EQ(last.size(), 1u);
+  // The strip's centre, col 65 (x = 1.31), pushed 0.1 m away from the camera.
+  EXPECT_NEAR(last[0].x, 1.41, 0.03);
+  EXPECT_NEAR(last[0].y, 2.01, 0.05);
+}
+
 // A bag standing still and a robot (base and mast) driving across the view right behind it, so
 // close that their plan-view blobs merge for a while.
 std::vector<Mover> robot_passing_bag() {

@@ -309,6 +309,37 @@ struct PlanViewTracker::Impl {
     return c;
   }
 
+  // Centre of mass of the blob at cell `c` (see blob_near) over its cells within a template window,
+  // the window re-centred on the result a few times: the measured centre of an object whose blob
+  // is its own. The Gaussian mean shift of centre_of_mass stops anywhere on a plateau, and stereo
+  // at long range smears a person into a plateau along the line of sight, where a track would stay
+  // on the part it was on (lagging a walking person by half a metre). The window bounds the pull
+  // of whatever else the blob may hold. Not for bags (see measure_and_update). `c` itself when no
+  // blob is there.
+  Eigen::Vector2d blob_centre(Eigen::Vector2d c) const {
+    const int label = blob_near(c);
+    if (!label) return c;
+    for (int it = 0; it < 3; ++it) {
+      const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+      double w = 0, sx = 0, sy = 0;
+      for (int dj = -half; dj < T - half; ++dj)
+        for (int di = -half; di < T - half; ++di) {
+          if (label_at(ci + di, cj + dj) != label) continue;
+          const double v = *at(occ, ci + di, cj + dj);
+          w += v;
+          sx += v * (ci + di);
+          sy += v * (cj + dj);
+        }
+      if (w <= 0) break;
+      const Eigen::Vector2d n(sx / w, sy / w);
+      if (!window_ok(static_cast<int>(std::lround(n.x())), static_cast<int>(std::lround(n.y())))) break;
+      const bool done = (n - c).norm() < 0.5;
+      c = n;
+      if (done) break;
+    }
+    return c;
+  }
+
   // Highest masked cell within height_radius of `c`.
   double height_near(const Eigen::Vector2d& c) const {
     const int rad = std::min(half, static_cast<int>(std::ceil(p.height_radius / grid.cell)));
@@ -537,9 +568,13 @@ struct PlanViewTracker::Impl {
   // blob's extent and its highest point near the centre may be the other object's, and would
   // drag the shape (and so the class) and the templates.
   bool measure_and_update(Trk& t, const Eigen::Vector2d& start, double rate, bool gated) {
-    const Eigen::Vector2d c = centre_of_mass(start);
-    const Eigen::Vector2d m = grid.to_map(c.x(), c.y());
+    Eigen::Vector2d c = centre_of_mass(start);
     const bool shared = shared_blob(t, blob_near(c));
+    // A bag does not walk, so it has no lag to catch up with, and the blob under a bag grows
+    // mostly by merging with someone next to it (a person picking it up whose track is not on
+    // the blob yet, a robot passing): a bag keeps the local centre.
+    if (p.measure_blob_centre && !shared && t.cls != TrackClass::kBag) c = blob_centre(c);
+    const Eigen::Vector2d m = grid.to_map(c.x(), c.y());
     double w = shared ? -1 : width_near(c);
     if (w < 0) w = t.x(5);
     const Eigen::Vector2d centre = m + surface_offset(m, w);
