@@ -230,12 +230,6 @@ bool Reader::wait(double timeout_s) {
   return n > 0;
 }
 
-int Reader::writers() const {
-  dds_subscription_matched_status_t st{};
-  if (dds_get_subscription_matched_status(entity_, &st) < 0) return 0;
-  return static_cast<int>(st.current_count);
-}
-
 Status Reader::take_batch(void** samples, dds_sample_info_t* infos, int max, int* got) {
   const dds_return_t n = dds_take(entity_, samples, infos, static_cast<size_t>(max), static_cast<uint32_t>(max));
   if (n < 0) return internal_error(dds_error("dds_take", n));

@@ -93,8 +93,6 @@ class Reader : public Endpoint {
   // Takes every available valid sample, calling `fn` with each (a pointer to the generated type).
   template <class Fn>
   Status take_each(Fn fn);
-  // Number of matched writers.
-  int writers() const;
 
  private:
   dds_entity_t waitset_ = 0, condition_ = 0;  // made on the first wait()

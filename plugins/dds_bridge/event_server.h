@@ -81,8 +81,6 @@ class EventServer {
   // Waits up to `timeout_s` for camera events, then handles every one available.
   Status poll(double timeout_s, Log* log);
   const IncidentMerger& merger() const { return merger_; }
-  Reader& reader() { return *reader_; }
-  Writer& writer() { return *writer_; }
 
  private:
   EventServer(IncidentMerger m) : merger_(std::move(m)) {}
@@ -98,7 +96,6 @@ class IncidentSubscriber {
   // Waits up to `timeout_s`, then takes every incident available; malformed ones are reported
   // in `rejected` with the reason.
   Status poll(double timeout_s, std::vector<Incident>* out, std::vector<std::string>* rejected = nullptr);
-  Reader& reader() { return *reader_; }
 
  private:
   std::unique_ptr<Reader> reader_;
