@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -774,6 +775,51 @@ TEST(PlanViewTracker, BagKeepsItsShapeWhileARobotPassesBesideIt) {
         EXPECT_LT(t.height, 0.6) << f;
         EXPECT_EQ(t.cls, TrackClass::kBag) << f;
       }
+}
+
+// The template search stops scoring a window once its partial sum cannot beat the best so far,
+// and uses AVX2 where the CPU has it: the tracks are the same, bit for bit, as scoring every
+// window in full with the portable kernel (walkers crossing, a walker behind another, a robot
+// passing a bag: misses, occlusion and claims all take part).
+TEST(PlanViewTracker, FastSearchGivesTheSameTracksAsTheExhaustiveOne) {
+  auto run = [](bool exhaustive) {
+    detail::planview_tracker_exhaustive_search(exhaustive);
+    std::vector<std::vector<Track>> all;
+    auto add = [&](const SequenceResult& r) { all.insert(all.end(), r.frames.begin(), r.frames.end()); };
+    add(run_sequence(
+        synthetic_camera(),
+        {person("a", [](double t) { return std::optional<Vector2d>(Vector2d(3.2 + 0.7 * t, -1.4 + 0.7 * t)); }),
+         person("b", [](double t) { return std::optional<Vector2d>(Vector2d(3.8 + 0.7 * t, 1.4 - 0.7 * t)); })},
+        60));
+    add(run_sequence(
+        synthetic_camera(),
+        {person("near", [](double t) { return std::optional<Vector2d>(Vector2d(3.5, 1.4 - 0.9 * t)); }),
+         person("far", [](double t) { return std::optional<Vector2d>(Vector2d(5.0, -1.6 + 0.9 * t)); })},
+        54));
+    add(run_sequence(synthetic_camera(), robot_passing_bag(), 105));
+    detail::planview_tracker_exhaustive_search(false);
+    return all;
+  };
+  const auto fast = run(false), full = run(true);
+  ASSERT_EQ(fast.size(), full.size());
+  size_t tracks = 0;
+  for (size_t f = 0; f < fast.size(); ++f) {
+    ASSERT_EQ(fast[f].size(), full[f].size()) << "frame " << f;
+    for (size_t i = 0; i < fast[f].size(); ++i) {
+      const Track &a = fast[f][i], &b = full[f][i];
+      EXPECT_EQ(a.id, b.id) << f;
+      EXPECT_EQ(a.cls, b.cls) << f;
+      // Bitwise: not a tolerance.
+      EXPECT_EQ(std::memcmp(&a.x, &b.x, sizeof a.x), 0) << f;
+      EXPECT_EQ(std::memcmp(&a.y, &b.y, sizeof a.y), 0) << f;
+      EXPECT_EQ(std::memcmp(&a.vx, &b.vx, sizeof a.vx), 0) << f;
+      EXPECT_EQ(std::memcmp(&a.width, &b.width, sizeof a.width), 0) << f;
+      EXPECT_EQ(std::memcmp(&a.height, &b.height, sizeof a.height), 0) << f;
+      EXPECT_EQ(std::memcmp(&a.confidence, &b.confidence, sizeof a.confidence), 0) << f;
+      ++tracks;
+    }
+  }
+  EXPECT_GT(tracks, 300u);
 }
 
 TEST(PlanViewTracker, EstablishedClassSurvivesAFewSecondsOfAnotherShape) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <numeric>
 
@@ -33,6 +34,90 @@ std::string grid_str(const PlanViewGrid& g) {
 }
 
 constexpr int kLanes = 8;  // partial sums kept apart so the compiler vectorises without reassociating
+
+// Rows [r0, r1) of eq. 10.8's sums for one window: |tau_o - occ|, |tau_h - hgt| and, with claims,
+// claim * gauss, accumulated per lane. The same source is compiled twice, for the baseline and for
+// AVX2 (picked at run time); lanes never mix, so both give the same bits.
+struct SadRows {
+  const float* occ;    // map row of the window's first row, at its first column
+  const float* hgt;
+  const float* claim;  // null without claims
+  size_t map_step;     // floats between map rows
+  const float* tau_o;  // template rows, T floats each
+  const float* tau_h;
+  const float* gauss;
+  int T;
+};
+
+// Eight float lanes as one value (GCC/Clang vector extension: one AVX register, or two SSE ones).
+// The helpers are internal and inlined: GCC's note that passing such a value by value depends on
+// -mavx (-Wpsabi) does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef float F8 __attribute__((vector_size(32)));
+typedef int I8 __attribute__((vector_size(32)));
+static_assert(kLanes == 8, "the SAD kernel works on 8 lanes");
+
+inline F8 load8(const float* p) {
+  F8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline F8 abs8(F8 v) { return reinterpret_cast<F8>(reinterpret_cast<I8>(v) & 0x7fffffff); }
+
+inline void sad_rows_impl(const SadRows& a, int r0, int r1, float* out_o, float* out_h, float* out_c) {
+  F8 vo = load8(out_o), vh = load8(out_h), vc = load8(out_c);
+  const int T = a.T, blocks = T / kLanes * kLanes;
+  for (int r = r0; r < r1; ++r) {
+    const size_t mrow = static_cast<size_t>(r) * a.map_step, trow = static_cast<size_t>(r) * T;
+    const float* mo = a.occ + mrow;
+    const float* mh = a.hgt + mrow;
+    const float* to = a.tau_o + trow;
+    const float* th = a.tau_h + trow;
+    for (int k = 0; k < blocks; k += kLanes) {
+      vo += abs8(load8(to + k) - load8(mo + k));
+      vh += abs8(load8(th + k) - load8(mh + k));
+    }
+    for (int k = blocks; k < T; ++k) {
+      vo[0] += std::abs(to[k] - mo[k]);
+      vh[0] += std::abs(th[k] - mh[k]);
+    }
+    if (a.claim) {
+      const float* mc = a.claim + mrow;
+      const float* g = a.gauss + trow;
+      for (int k = 0; k < blocks; k += kLanes) vc += load8(mc + k) * load8(g + k);
+      for (int k = blocks; k < T; ++k) vc[0] += mc[k] * g[k];
+    }
+  }
+  std::memcpy(out_o, &vo, sizeof vo);
+  std::memcpy(out_h, &vh, sizeof vh);
+  std::memcpy(out_c, &vc, sizeof vc);
+}
+
+void sad_rows_portable(const SadRows& a, int r0, int r1, float* acc_o, float* acc_h, float* acc_c) {
+  sad_rows_impl(a, r0, r1, acc_o, acc_h, acc_c);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx2"))) void sad_rows_avx2(const SadRows& a, int r0, int r1, float* acc_o, float* acc_h,
+                                                   float* acc_c) {
+  sad_rows_impl(a, r0, r1, acc_o, acc_h, acc_c);
+}
+#endif
+
+using SadRowsFn = void (*)(const SadRows&, int, int, float*, float*, float*);
+
+bool& exhaustive_flag() {
+  static bool exhaustive = false;
+  return exhaustive;
+}
+
+SadRowsFn pick_sad_rows() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2 && !exhaustive_flag()) return &sad_rows_avx2;
+#endif
+  return &sad_rows_portable;
+}
 
 // One connected blob of the plan-view mask.
 struct Blob {
@@ -236,46 +321,38 @@ struct PlanViewTracker::Impl {
   }
 
   // Eq. 10.8 at window centre (col, row) for track t; `pred` = predicted cell position.
-  double score_at(const Trk& t, int col, int row, const Eigen::Vector2d& pred, bool claims) const {
+  // Every term is non-negative and the sums only grow row by row, so the score of the rows seen so
+  // far is a lower bound of the full score: once it reaches `bound` the window cannot be the best
+  // one and +inf is returned early (exact: the bound is combined in the same order as the score).
+  double score_at(const Trk& t, int col, int row, const Eigen::Vector2d& pred, bool claims,
+                  double bound = std::numeric_limits<double>::infinity()) const {
+    const double dist = p.beta * std::hypot(col - pred.x(), row - pred.y()) * grid.cell;
+    auto combine = [&](const float* ao, const float* ah, const float* ac) {
+      double so = 0, sh = 0, sc = 0;
+      for (int q = 0; q < kLanes; ++q) {
+        so += ao[q];
+        sh += ah[q];
+        sc += ac[q];
+      }
+      double s = 0;
+      if (p.w_height > 0) s += t.sum_h > 0 ? p.w_height * sh / t.sum_h : p.w_height;
+      if (p.w_occupancy > 0) s += t.sum_o > 0 ? p.w_occupancy * so / t.sum_o : p.w_occupancy;
+      s += dist;
+      if (claims && t.core_o > 0) s += p.alpha * sc / t.core_o;
+      return s;
+    };
     float acc_o[kLanes] = {}, acc_h[kLanes] = {}, acc_c[kLanes] = {};
+    if (combine(acc_o, acc_h, acc_c) >= bound) return std::numeric_limits<double>::infinity();
     const int x0 = col - half, y0 = row - half;
-    const int blocks = T / kLanes * kLanes;
-    for (int r = 0; r < T; ++r) {
-      const float* mo = at(occ, x0, y0 + r);
-      const float* mh = at(hgt, x0, y0 + r);
-      const float* to = t.tau_o.data() + static_cast<size_t>(r) * T;
-      const float* th = t.tau_h.data() + static_cast<size_t>(r) * T;
-      int k = 0;
-      for (; k < blocks; k += kLanes)
-        for (int q = 0; q < kLanes; ++q) {
-          acc_o[q] += std::abs(to[k + q] - mo[k + q]);
-          acc_h[q] += std::abs(th[k + q] - mh[k + q]);
-        }
-      for (; k < T; ++k) {
-        acc_o[0] += std::abs(to[k] - mo[k]);
-        acc_h[0] += std::abs(th[k] - mh[k]);
-      }
-      if (claims) {
-        const float* mc = at(claim, x0, y0 + r);
-        const float* g = gauss.data() + static_cast<size_t>(r) * T;
-        k = 0;
-        for (; k < blocks; k += kLanes)
-          for (int q = 0; q < kLanes; ++q) acc_c[q] += mc[k + q] * g[k + q];
-        for (; k < T; ++k) acc_c[0] += mc[k] * g[k];
-      }
+    const SadRows rows{at(occ, x0, y0), at(hgt, x0, y0), claims ? at(claim, x0, y0) : nullptr,
+                       occ.step1(), t.tau_o.data(), t.tau_h.data(), gauss.data(), T};
+    const SadRowsFn sad_rows = pick_sad_rows();
+    constexpr int kChunk = 8;  // rows between bound checks
+    for (int r = 0; r < T; r += kChunk) {
+      sad_rows(rows, r, std::min(T, r + kChunk), acc_o, acc_h, acc_c);
+      if (r + kChunk < T && combine(acc_o, acc_h, acc_c) >= bound) return std::numeric_limits<double>::infinity();
     }
-    double so = 0, sh = 0, sc = 0;
-    for (int q = 0; q < kLanes; ++q) {
-      so += acc_o[q];
-      sh += acc_h[q];
-      sc += acc_c[q];
-    }
-    double s = 0;
-    if (p.w_height > 0) s += t.sum_h > 0 ? p.w_height * sh / t.sum_h : p.w_height;
-    if (p.w_occupancy > 0) s += t.sum_o > 0 ? p.w_occupancy * so / t.sum_o : p.w_occupancy;
-    s += p.beta * std::hypot(col - pred.x(), row - pred.y()) * grid.cell;
-    if (claims && t.core_o > 0) s += p.alpha * sc / t.core_o;
-    return s;
+    return combine(acc_o, acc_h, acc_c);
   }
 
   // Gaussian-weighted centre of mass of theta_sm near `c` (cells), a few mean-shift steps.
@@ -607,9 +684,17 @@ struct PlanViewTracker::Impl {
     const bool claims = !claimed.empty() && p.alpha > 0;
     double best = std::numeric_limits<double>::infinity();
     int bc = pc, br = pr;
+    // When the predicted window is one of the candidates, its score bounds the search from the
+    // start: a window scoring above it cannot win, and one equal to it is still scored in full
+    // (the first minimum in raster order wins, as without the bound).
+    const bool pred_in_scan = rc % step == 0 && window_ok(pc, pr);
+    const bool prune = !exhaustive_flag();
+    const double seed = pred_in_scan && prune ? score_at(t, pc, pr, pred, claims) : best;
     auto consider = [&](int c, int r) {
       if (!window_ok(c, r)) return;
-      const double s = score_at(t, c, r, pred, claims);
+      const double bound =
+          prune ? std::min(best, std::nextafter(seed, std::numeric_limits<double>::infinity())) : std::numeric_limits<double>::infinity();
+      const double s = score_at(t, c, r, pred, claims, bound);
       if (s < best) {
         best = s;
         bc = c;
@@ -969,5 +1054,9 @@ cv::Mat draw_plan_view(const PlanView& v, const std::vector<Track>& tracks, cons
   cv::putText(out, "height", {a.cols + kGap + 4, 13}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {255, 255, 255}, 1, cv::LINE_AA);
   return out;
 }
+
+namespace detail {
+void planview_tracker_exhaustive_search(bool exhaustive) { exhaustive_flag() = exhaustive; }
+}  // namespace detail
 
 }  // namespace vigil::vision

@@ -220,4 +220,10 @@ cv::Mat draw_plan_view(const PlanView& view, const std::vector<Track>& tracks, c
 // Pixel of a map point in the images above.
 cv::Point2d plan_view_pixel(const PlanViewGrid& grid, double x, double y, int scale = 1);
 
+namespace detail {
+// Tests only: score every candidate window in full with the portable kernel (no early exit by the
+// bound, no AVX2). The fast search gives the same tracks; this lets a test check it.
+void planview_tracker_exhaustive_search(bool exhaustive);
+}  // namespace detail
+
 }  // namespace vigil::vision

@@ -261,8 +261,8 @@ void add_bench_camera_commands(CLI::App* bench) {
     std::printf("vigil bench planview: %s, camera %s, %d frames from t = %.1f s, SGBM disparity computed first (not "
                 "timed), one thread\n",
                 scenario->name.c_str(), po->camera.c_str(), po->frames, po->from);
-    std::printf("%10s %14s %14s %14s %14s %12s %12s\n", "size", "foreground ms", "plan view ms", "tracking ms",
-                "pipeline ms", "MOG2 ms", "pipeline fps");
+    std::printf("%10s %14s %14s %14s %14s %12s %12s %12s\n", "size", "foreground ms", "plan view ms", "tracking ms",
+                "pipeline ms", "MOG2 ms", "vs MOG2", "pipeline fps");
     const int threads = cv::getNumThreads();
     for (const auto& size : po->sizes) {
       Size z{};
@@ -344,7 +344,8 @@ void add_bench_camera_commands(CLI::App* bench) {
       const double n = static_cast<double>(frames.size());
       const double fg = 1e3 * t_fg / n, pv = 1e3 * t_pv / n, tr = 1e3 * t_tr / n, mog = 1e3 * t_mog / n;
       const double all = fg + pv + tr;
-      std::printf("%10s %14.2f %14.2f %14.2f %14.2f %12.2f %12.0f\n", size.c_str(), fg, pv, tr, all, mog, 1e3 / all);
+      std::printf("%10s %14.2f %14.2f %14.2f %14.2f %12.2f %11.2fx %12.0f\n", size.c_str(), fg, pv, tr, all, mog,
+                  all / mog, 1e3 / all);
       std::fflush(stdout);
       results.push_back({{"width", z.w}, {"height", z.h}, {"frames", frames.size()}, {"track_records", n_tracks},
                          {"foreground_ms", fg}, {"plan_view_ms", pv}, {"tracking_ms", tr}, {"pipeline_ms", all},
