@@ -45,7 +45,10 @@ struct Actor {
 
 constexpr double kHz = 15;
 
-std::vector<Event> run(ActivityRules& rules, double duration, const std::vector<Actor>& actors) {
+using Robots = std::function<std::vector<ActivityRules::RobotPosition>(double)>;
+
+std::vector<Event> run(ActivityRules& rules, double duration, const std::vector<Actor>& actors,
+                       const Robots& robots = nullptr) {
   std::vector<Event> all;
   const int n = static_cast<int>(duration * kHz);
   for (int k = 0; k <= n; ++k) {
@@ -71,7 +74,7 @@ std::vector<Event> run(ActivityRules& rules, double duration, const std::vector<
       tr.confidence = 0.9;
       tracks.push_back(tr);
     }
-    auto out = rules.update(stamp, tracks);
+    auto out = robots ? rules.update(stamp, tracks, robots(t)) : rules.update(stamp, tracks);
     EXPECT_TRUE(out.ok()) << out.error().str();
     if (!out) break;
     all.insert(all.end(), out->begin(), out->end());
@@ -269,6 +272,43 @@ TEST(ActivityRules, HandlingAMarkedObjectIsUnauthorisedOncePerVisit) {
   EXPECT_GT(seconds(events[1].stamp_ns), 21.0);
 }
 
+// A far robot whose mast the camera does not resolve is tracked as a bag. One that stops where a
+// person stood, the person walking off, is a left bag to rules that do not know where the robots
+// are; with the robots' reported positions it is nothing.
+TEST(ActivityRules, RobotSeenAsABagAtItsReportedPlaceIsNoObject) {
+  const Actor robot_as_bag{100, TrackClass::kBag, Path{{{4.5, 5, -0.45}, {30, 5, -0.45}}}};
+  const Robots parked = [](double) { return std::vector<ActivityRules::RobotPosition>{{5.1, -0.5}}; };
+  auto unaware = make_rules();
+  const auto wrong = run(unaware, 20, {owner_walks_off(), robot_as_bag});
+  ASSERT_EQ(wrong.size(), 1u);  // the trap is real
+  EXPECT_EQ(wrong[0].kind, EventKind::kLeftBag);
+  auto aware = make_rules();
+  EXPECT_TRUE(run(aware, 20, {owner_walks_off(), robot_as_bag}, parked).empty());
+  EXPECT_TRUE(aware.objects().empty());
+  // A robot elsewhere changes nothing.
+  auto far = make_rules();
+  const Robots away = [](double) { return std::vector<ActivityRules::RobotPosition>{{0, -3}}; };
+  EXPECT_EQ(run(far, 20, {owner_walks_off(), robot_as_bag}, away).size(), 1u);
+}
+
+// A robot driving right past a bag already left keeps the bag: the report comes as without it.
+TEST(ActivityRules, RobotDrivingPastALeftBagDoesNotHideIt) {
+  auto plain = make_rules();
+  const auto expected = run(plain, 20, {owner_walks_off(), bag_at_5()});
+  ASSERT_EQ(expected.size(), 1u);
+  // Along y = -0.45 at 0.4 m/s, over the bag's place at 12 s, within robot_radius of it from 10
+  // to 14 s: when the report comes.
+  const Robots passing = [](double t) {
+    return std::vector<ActivityRules::RobotPosition>{{5.0 + 0.4 * (t - 12), -0.45}};
+  };
+  auto rules = make_rules();
+  const auto events = run(rules, 20, {owner_walks_off(), bag_at_5()}, passing);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[0].stamp_ns, expected[0].stamp_ns);
+  EXPECT_NEAR(seconds(events[0].stamp_ns), 13.1, 0.3);  // the robot was beside the bag then
+}
+
 TEST(ActivityRules, BadInputIsAnErrorNamingTheKey) {
   ActivityRuleParams p;
   p.left_bag_distance = -1;
@@ -287,7 +327,16 @@ TEST(ActivityRules, BadInputIsAnErrorNamingTheKey) {
   EXPECT_EQ(r.error().key, "watched[0].name");
   EXPECT_FALSE(ActivityRules::create({}, "").ok());
 
+  p = {};
+  p.robot_radius = -0.5;
+  r = ActivityRules::create(p, "cam");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().key, "robot_radius");
+
   auto rules = make_rules();
+  auto nan_robot = rules.update(500, {}, {{1.0, std::nan("")}});
+  ASSERT_FALSE(nan_robot.ok());
+  EXPECT_EQ(nan_robot.error().key, "robots[0]");
   ASSERT_TRUE(rules.update(1000, {}).ok());
   auto again = rules.update(1000, {});
   ASSERT_FALSE(again.ok());

@@ -35,7 +35,7 @@ Status ActivityRuleParams::validate() const {
       {"object_confirm_time", object_confirm_time, true}, {"object_gone_time", object_gone_time, true},
       {"start_time", start_time, true},                {"person_lost_time", person_lost_time, false},
       {"touch_distance", touch_distance, false},       {"touch_time", touch_time, true},
-      {"occluder_radius", occluder_radius, true},
+      {"occluder_radius", occluder_radius, true},      {"robot_radius", robot_radius, true},
   };
   for (const auto& c : checks) {
     if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
@@ -100,7 +100,11 @@ Event ActivityRules::make_event(EventKind kind, int64_t now, const Point3& where
   return e;
 }
 
-Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::vector<Track>& tracks) {
+Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::vector<Track>& tracks,
+                                                 const std::vector<RobotPosition>& robots) {
+  for (size_t i = 0; i < robots.size(); ++i)
+    if (!std::isfinite(robots[i].x) || !std::isfinite(robots[i].y))
+      return bad_input("", 0, "robots[" + std::to_string(i) + "]", "robot position must be finite");
   if (last_stamp_ >= 0 && stamp_ns <= last_stamp_)
     return bad_input("", 0, "t_ns",
                      "tracks out of order: tick at " + std::to_string(stamp_ns) + " ns after one at " +
@@ -136,7 +140,7 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
     it = stamp_ns - it->second.last_seen > 10 * ns(p_.person_lost_time) ? people_.erase(it) : std::next(it);
   }
 
-  match_objects(stamp_ns, bags);
+  match_objects(stamp_ns, bags, robots);
   std::vector<Event> out;
   rule_left_bag(stamp_ns, &out);
   rule_taken(stamp_ns, dt, &out);
@@ -145,16 +149,22 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
   return out;
 }
 
-void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& bags) {
+void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& bags,
+                                  const std::vector<RobotPosition>& robots) {
   std::vector<bool> used(objects_.size(), false);
   for (const Track* t : bags) {
+    // Near a robot: it may be the robot, so it only keeps an object already confirmed in sight
+    // (a robot driving past a left bag), and neither starts nor confirms one.
+    bool near_robot = false;
+    for (const RobotPosition& r : robots) near_robot = near_robot || dist(t->x, t->y, r.x, r.y) <= p_.robot_radius;
     int best = -1;
     double best_d = p_.object_match_distance;
     for (size_t i = 0; i < objects_.size(); ++i) {
-      if (used[i]) continue;
+      if (used[i] || (near_robot && !objects_[i].confirmed)) continue;
       const double d = dist(t->x, t->y, objects_[i].x, objects_[i].y);
       if (d <= best_d) best_d = d, best = static_cast<int>(i);
     }
+    if (best < 0 && near_robot) continue;
     if (best < 0) {
       ObjectModel o;
       o.x = t->x;

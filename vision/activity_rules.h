@@ -62,6 +62,9 @@ struct ActivityRuleParams {
   double touch_distance = 1.0;       // m from a person's centre to a marked object
   double touch_time = 1.0;           // s within touch_distance
   double occluder_radius = 0.3;      // m: a person this close to the line of sight hides an object
+  double robot_radius = 0.8;         // m: a bag track this close to a robot's reported position may be
+                                     // that robot (a far robot whose mast the camera does not resolve
+                                     // looks like a bag): it does not start or confirm an object model
   std::vector<WatchedObject> watched;
   // Checks every value; the key names the parameter.
   Status validate() const;
@@ -76,7 +79,13 @@ class ActivityRules {
 
   // One camera tick: every track of this camera at `stamp_ns` (empty when nothing is tracked).
   // Stamps must increase; tracks of another camera or with non-finite values are errors.
-  Result<std::vector<Event>> update(int64_t stamp_ns, const std::vector<Track>& tracks);
+  // `robots`: where the patrol robots say they are now (map frame, their own pose estimates, as
+  // they publish them), so that a robot seen as a bag is not taken for a new object.
+  struct RobotPosition {
+    double x = 0, y = 0;
+  };
+  Result<std::vector<Event>> update(int64_t stamp_ns, const std::vector<Track>& tracks,
+                                    const std::vector<RobotPosition>& robots = {});
 
   // Every event so far, in order.
   const std::vector<Event>& events() const { return events_; }
@@ -118,7 +127,7 @@ class ActivityRules {
 
   const Person* person(int id, int64_t now) const;
   bool hidden(const ObjectModel& o, int64_t now) const;
-  void match_objects(int64_t now, const std::vector<const Track*>& bags);
+  void match_objects(int64_t now, const std::vector<const Track*>& bags, const std::vector<RobotPosition>& robots);
   void rule_left_bag(int64_t now, std::vector<Event>* out);
   void rule_taken(int64_t now, int64_t dt, std::vector<Event>* out);
   void rule_touch(int64_t now, std::vector<Event>* out);

@@ -538,12 +538,16 @@ Result<std::optional<StereoMatcherParams>> take_matcher_options(const std::strin
       ++it;
       continue;
     }
-    if (!int_fields.count(key) && key != "mode") return spec_error(spec, key, "unknown option for this source");
+    if (!int_fields.count(key) && key != "mode" && key != "subpixel")
+      return spec_error(spec, key, "unknown option for this source");
     if (algorithm == "none") return spec_error(spec, key, "a matcher option needs disparity=sgbm or disparity=bm");
     if (auto f = int_fields.find(key); f != int_fields.end()) {
       auto v = parse_int(spec, key, value);
       if (!v) return v.error();
       *f->second = *v;
+    } else if (key == "subpixel") {
+      if (value != "fit" && value != "cancel") return spec_error(spec, key, "expected fit or cancel, got '" + value + "'");
+      mp.half_pixel_pass = value == "cancel";
     } else {
       auto m = parse_sgbm_mode(value);
       if (!m) return spec_error(spec, key, m.error().message);

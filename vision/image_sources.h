@@ -25,6 +25,8 @@
 //   num_disparities, min_disparity, block_size, uniqueness_ratio, speckle_window_size,
 //   speckle_range, disp12_max_diff, p1, p2 (integers), mode=sgbm|hh|3way|hh4
 //                                   stereo matcher parameters (vision/stereo_matcher.h)
+//   subpixel=fit|cancel             fit: the matcher's own sub-pixel disparities; cancel: plus a
+//                                   half-pixel-shifted pass averaged in (half_pixel_pass)
 //   alpha=A                         stereo only: rectification scaling, 0 (default) to 1
 // Example: stereo:/data/left%02d.jpg,/data/right%02d.jpg,/data/rig.yaml;disparity=sgbm;num_disparities=128
 #pragma once

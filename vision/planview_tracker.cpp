@@ -176,6 +176,7 @@ Status PlanViewTrackerParams::validate() const {
   if (!(class_vote_decay > 0 && class_vote_decay <= 1))
     return param_error("class_vote_decay", "must be in (0, 1], got " + num(class_vote_decay));
   if (!nonneg(birth_border_margin)) return param_error("birth_border_margin", "must be >= 0");
+  if (!nonneg(birth_shadow_depth)) return param_error("birth_shadow_depth", "must be >= 0");
   if (!nonneg(explain_distance)) return param_error("explain_distance", "must be >= 0");
   if (!nonneg(reacquire_distance)) return param_error("reacquire_distance", "must be >= 0");
   if (!pos(accel_noise)) return param_error("accel_noise", "must be positive");
@@ -757,6 +758,27 @@ struct PlanViewTracker::Impl {
     return false;
   }
 
+  // True when a track updated this frame stands in front of map point m (an object of width w),
+  // 0.25 m to birth_shadow_depth nearer the camera, overlapping it in the image.
+  bool in_shadow_of_track(const Eigen::Vector2d& m, double w) const {
+    if (p.birth_shadow_depth <= 0) return false;
+    const Eigen::Vector2d s = m - camera;
+    const double range = s.norm();
+    if (range < 1e-6) return false;
+    const Eigen::Vector2d u = s / range;
+    for (const Trk& o : tracks) {
+      if (!o.updated || !o.confirmed) continue;
+      const Eigen::Vector2d q = o.x.head<2>() - camera;
+      const double along = q.dot(u);
+      const double across = std::abs(q.x() * u.y() - q.y() * u.x());
+      // Behind it (side by side is the blobs' business), and close enough to be smeared together.
+      if (along > 0.05 && range - along > 0.25 && range - along < p.birth_shadow_depth &&
+          across < 0.5 * (o.x(5) + w) + 0.1)
+        return true;
+    }
+    return false;
+  }
+
   void count_misses(double dt) {
     const double decay = p.coast_velocity_decay > 0 ? std::exp(-dt / p.coast_velocity_decay) : 1.0;
     for (Trk& t : tracks) {
@@ -819,6 +841,7 @@ struct PlanViewTracker::Impl {
         continue;
       }
       if (b.on_border && border_distance(bc) < p.birth_border_margin) continue;  // partly outside: not yet
+      if (in_shadow_of_track(bm, bw)) continue;  // mixed with the object just in front: not yet
       Trk t;
       t.id = next_id++;
       t.x << bm.x(), bm.y(), 0, 0, b.max_height, bw;

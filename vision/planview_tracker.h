@@ -38,6 +38,11 @@
 // inside (a blob well inside that only reaches the border by a thin tail of depth noise is
 // fine), and a track already following an object keeps it up to and across the border.
 //
+// Nor is a track born from a blob that lies in the image behind a track seen this frame, 0.25 m to
+// birth_shadow_depth behind it along the line of sight: stereo smears the two together along
+// that line, so the new blob still carries a sliver of the one in front (a bag just put down
+// behind its owner, born with the owner's leg, classed robot). It is born once the two are apart.
+//
 // Occlusion explains a disappearance only when the occluder was there when it happened: a track
 // lost in the open (its first missed frame not occluded) stays missing even if a track later
 // passes in front of it (often the same object re-found by a new track).
@@ -133,8 +138,10 @@ struct PlanViewTrackerParams {
   double occluded_position_noise = 0.1;  // above, only its position, with this noise (m)
   double birth_min_area = 0.04;   // m^2 of visible surface (occupancy sum * cell^2) for a new track
   double birth_min_height = 0.1;  // m, tallest cell of a blob for a new track
-  double birth_border_margin = 0.5;  // m: no birth from a blob touching the grid's border with its
+  double birth_border_margin = 0.25;  // m: no birth from a blob touching the grid's border with its
                                      // centre this close to it (see the header comment; 0 = off)
+  double birth_shadow_depth = 1.0;  // m: no birth from a blob hidden behind a track seen this frame
+                                    // and less than this behind it (see the header comment; 0 = off)
   double explain_distance = 0.3;  // m: a blob whose centre is this close to a track is that track's
   double reacquire_distance = 0.6;  // m: a coasting track this close to an unexplained blob takes it,
   double reacquire_max = 1.0;       // or up to this far as its prediction's 3 sigma grows

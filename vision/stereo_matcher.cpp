@@ -1,5 +1,6 @@
 #include "vision/stereo_matcher.h"
 
+#include <cmath>
 #include <string>
 
 #include <opencv2/imgproc.hpp>
@@ -145,24 +146,42 @@ Result<cv::Mat> StereoMatcher::compute(const cv::Mat& left, const cv::Mat& right
                      "image " + size_str(left) + " is too small for disparities up to " +
                          std::to_string(reach) + " and blocks of " +
                          std::to_string(params_.block_size));
-  cv::Mat raw;
-  try {
-    if (bm_) {
-      bm_->compute(as_grey(left), as_grey(right), raw);
-    } else {
-      const cv::Mat l = as_grey_or_bgr(left), r = as_grey_or_bgr(right);
-      const int area = params_.block_size * params_.block_size;
-      sgbm_->setP1(params_.p1 > 0 ? params_.p1 : 8 * l.channels() * area);
-      sgbm_->setP2(params_.p2 > 0 ? params_.p2 : 32 * l.channels() * area);
-      sgbm_->compute(l, r, raw);
-    }
-  } catch (const cv::Exception& e) {
-    return internal_error("stereo matching failed: " + std::string(e.what()));
-  }
   // OpenCV returns 16 * disparity in CV_16S and marks failures with (min_disparity - 1) * 16.
+  auto match = [&](const cv::Mat& l_in, const cv::Mat& r_in, cv::Mat* disparity) -> Status {
+    cv::Mat raw;
+    try {
+      if (bm_) {
+        bm_->compute(as_grey(l_in), as_grey(r_in), raw);
+      } else {
+        const cv::Mat l = as_grey_or_bgr(l_in), r = as_grey_or_bgr(r_in);
+        const int area = params_.block_size * params_.block_size;
+        sgbm_->setP1(params_.p1 > 0 ? params_.p1 : 8 * l.channels() * area);
+        sgbm_->setP2(params_.p2 > 0 ? params_.p2 : 32 * l.channels() * area);
+        sgbm_->compute(l, r, raw);
+      }
+    } catch (const cv::Exception& e) {
+      return internal_error("stereo matching failed: " + std::string(e.what()));
+    }
+    raw.convertTo(*disparity, CV_32F, 1.0 / 16.0);
+    disparity->setTo(kInvalidDisparity, raw < params_.min_disparity * 16);
+    return Status::Ok();
+  };
   cv::Mat disparity;
-  raw.convertTo(disparity, CV_32F, 1.0 / 16.0);
-  disparity.setTo(kInvalidDisparity, raw < params_.min_disparity * 16);
+  if (Status s = match(left, right, &disparity); !s) return s.error();
+  if (!params_.half_pixel_pass) return disparity;
+  // right'(x) = right(x + 0.5): a point at disparity d in the first pass is at d + 0.5 here.
+  cv::Mat shifted, second;
+  const cv::Matx23d shift(1, 0, -0.5, 0, 1, 0);
+  cv::warpAffine(right, shifted, shift, right.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  if (Status s = match(left, shifted, &second); !s) return s.error();
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* d = disparity.ptr<float>(y);
+    const float* e = second.ptr<float>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      const float d2 = e[x] - 0.5f;
+      if (d[x] > 0 && e[x] > 0 && std::abs(d[x] - d2) < 1.0f) d[x] = 0.5f * (d[x] + d2);
+    }
+  }
   return disparity;
 }
 

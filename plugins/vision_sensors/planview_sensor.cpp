@@ -19,6 +19,9 @@ class PlanViewSensor : public VisionSensor {
         {"disparity", ParamType::kString, std::string("sgbm"), 0, 0, "sgbm, bm or truth (the renderer's depth)"},
         {"num_disparities", ParamType::kInteger, 64.0, 16, 256, "stereo search range (px), a multiple of 16"},
         {"block_size", ParamType::kInteger, 5.0, 1, 51, "stereo block size (px, odd)"},
+        {"subpixel", ParamType::kString, std::string("cancel"), 0, 0,
+         "fit (the matcher's sub-pixel fit) or cancel (plus a half-pixel-shifted pass averaged in: less pixel "
+         "locking, twice the matching time)"},
         {"gaussians", ParamType::kInteger, 4.0, 1, 8, "K, Gaussians per pixel"},
         {"learning_rate", ParamType::kNumber, 0.005, 1e-5, 1, "alpha of eqs. 10.2 and 10.3"},
         {"cell_size", ParamType::kNumber, 0.02, 0.005, 0.5, "plan-view cell (m)"},
@@ -39,6 +42,10 @@ class PlanViewSensor : public VisionSensor {
           *algo == vision::StereoAlgorithm::kBM ? vision::StereoMatcherParams::bm() : vision::StereoMatcherParams{};
       mp.num_disparities = p.integer("num_disparities");
       mp.block_size = p.integer("block_size");
+      const std::string subpixel = p.string("subpixel");
+      if (subpixel != "fit" && subpixel != "cancel")
+        return bad_input("", 0, "subpixel", "expected fit or cancel, got '" + subpixel + "'");
+      mp.half_pixel_pass = subpixel == "cancel";
       if (Status s = mp.validate(); !s) return bad_input("", 0, s.error().key, s.error().message);
       auto m = vision::StereoMatcher::create(mp);
       if (!m) return bad_input("", 0, m.error().key, m.error().message);

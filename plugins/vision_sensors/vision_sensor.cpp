@@ -108,7 +108,7 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
         std::vector<vision::Track> fresh;
         if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return Status(in_context(*att, world, s.error()));
         ++att->index;
-        return self->emit(att, frame.stamp_ns, &fresh);
+        return self->emit(att, world, frame.stamp_ns, &fresh);
       });
     }
     host->sensors_.push_back(std::move(a));
@@ -155,14 +155,17 @@ Status VisionSensorHost::after_step(const World& world) {
     if (Status s = a->sensor->tick(nullptr, world, &fresh); !s) return Status(in_context(*a, world, s.error()));
     ++a->index;
     a->next_tick = from_seconds(static_cast<double>(a->index) / a->camera.rate_hz);
-    if (Status s = emit(a.get(), world.time(), &fresh); !s) return s;
+    if (Status s = emit(a.get(), world, world.time(), &fresh); !s) return s;
   }
   return Status::Ok();
 }
 
-Status VisionSensorHost::emit(Attached* a, int64_t stamp_ns, std::vector<vision::Track>* fresh) {
+Status VisionSensorHost::emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh) {
   if (a->rules) {
-    auto events = a->rules->update(stamp_ns, *fresh);
+    // The robots' own pose estimates (odometry), as they would publish them: not the truth.
+    std::vector<vision::ActivityRules::RobotPosition> robots;
+    for (const RobotEntity& r : world.robots()) robots.push_back({r.state.odometry.x, r.state.odometry.y});
+    auto events = a->rules->update(stamp_ns, *fresh, robots);
     if (!events) {
       Error e = events.error();
       e.message = "camera " + a->camera.id + ", activity rules: " + e.message;

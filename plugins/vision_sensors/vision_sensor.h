@@ -103,7 +103,7 @@ class VisionSensorHost : public RunObserver {
     int64_t index = 0;
   };
   // One tick's tracks of a camera: written, kept, and given to the camera's rules.
-  Status emit(Attached* a, int64_t stamp_ns, std::vector<vision::Track>* fresh);
+  Status emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh);
   // A sensor's run-time error, naming the scenario, the camera's line and key, and the time.
   static Error in_context(const Attached& a, const World& world, Error e);
 
