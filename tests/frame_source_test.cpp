@@ -513,6 +513,8 @@ TEST_F(FrameSourceTest, SpecErrorsNameTheirPart) {
       {"stereo:" + pair + ";disparity=sgbm;num_disparities=50", "num_disparities"},
       {"stereo:" + pair + ";disparity=bm;block_size=3", "block_size"},
       {"stereo:" + pair + ";disparity=sgbm;mode=fast", "mode"},
+      {"stereo:" + pair + ";disparity=sgbm;subpixel=exact", "subpixel"},
+      {"stereo:" + pair + ";subpixel=cancel", "disparity=sgbm"},
       {"stereo:" + pair + ";colour=1", "colour"},
       {"stereo:" + pair + ";disparity", "key=value"},
   };

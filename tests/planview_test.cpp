@@ -760,6 +760,43 @@ std::vector<Mover> robot_passing_bag() {
   return {bag, robot};
 }
 
+// A bag put down half a metre behind a person standing (as seen from the camera) and beside
+// them in the image: stereo would smear the two together along the line of sight, so no track is
+// born from the bag while the person stands there; it is born once they have walked off.
+TEST(PlanViewTracker, NoBirthInTheStereoShadowOfATrack) {
+  const Mover bag{"bag", Vector3d(0.4, 0.2, 0.4),
+                  [](double t) { return t >= 10 / kRate ? std::optional<Vector2d>(Vector2d(4.6, 0.35)) : std::nullopt; },
+                  std::nullopt};
+  const Mover stander = person("person", [](double t) {
+    const double leave = 40 / kRate;
+    return std::optional<Vector2d>(t < leave ? Vector2d(4.0, 0.0) : Vector2d(4.0, -1.0 * (t - leave)));
+  });
+  auto first_bag_frame = [](const SequenceResult& r) {
+    for (size_t f = 0; f < r.frames.size(); ++f)
+      for (const Track& t : r.frames[f])
+        if (std::hypot(t.x - 4.6, t.y - 0.35) < 0.3) return static_cast<int>(f);
+    return -1;
+  };
+  const auto with_rule = run_sequence(synthetic_camera(), {bag, stander}, 70);
+  PlanViewTrackerParams off;
+  off.birth_shadow_depth = 0;
+  const auto without = run_sequence(synthetic_camera(), {bag, stander}, 70, off);
+  const int born_with = first_bag_frame(with_rule), born_without = first_bag_frame(without);
+  std::printf("[shadow] bag first reported at frame %d (rule on), %d (off); the person leaves at 40\n", born_with,
+              born_without);
+  ASSERT_GE(born_without, 0);
+  EXPECT_LT(born_without, 20);  // visible beside the person: born at once without the rule
+  ASSERT_GE(born_with, 0);
+  EXPECT_GE(born_with, 40);  // not while the person stands in front...
+  EXPECT_LT(born_with, 60);  // ...but soon after they have gone
+  EXPECT_EQ(with_rule.frames.back().size(), 2u);
+  for (const Track& t : with_rule.frames.back()) {
+    if (std::hypot(t.x - 4.6, t.y - 0.35) < 0.3) {
+      EXPECT_EQ(t.cls, TrackClass::kBag);
+    }
+  }
+}
+
 TEST(PlanViewTracker, BagKeepsItsShapeWhileARobotPassesBesideIt) {
   const auto r = run_sequence(synthetic_camera(), robot_passing_bag(), 105);
   std::printf("[robot past bag] %s\n", r.scorer.summary().c_str());

@@ -8,7 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -85,6 +87,60 @@ TEST_F(StereoTest, BothAlgorithmsRecoverAKnownShift) {
       EXPECT_EQ((*d).at<float>(120, 2), StereoMatcher::kInvalidDisparity) << what;
     }
   }
+}
+
+// Sub-pixel disparities: SGBM's parabola fit pulls them towards whole pixels (pixel locking);
+// the half-pixel pass cancels most of that bias. A textured pair shifted by fractional amounts.
+TEST_F(StereoTest, HalfPixelPassCancelsPixelLocking) {
+  cv::Mat texture(240, 400, CV_32F);
+  cv::RNG(7).fill(texture, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(texture, texture, cv::Size(), 1.5);
+  cv::Mat left;
+  texture.convertTo(left, CV_8U);
+  StereoMatcherParams fit_params;
+  StereoMatcherParams cancel_params;
+  cancel_params.half_pixel_pass = true;
+  auto fit = StereoMatcher::create(fit_params);
+  auto cancel = StereoMatcher::create(cancel_params);
+  ASSERT_TRUE(fit.ok() && cancel.ok());
+  const cv::Rect inner(80, 20, 300, 200);
+  auto median_error = [&](const cv::Mat& d, double truth) {
+    std::vector<float> e;
+    for (int y = inner.y; y < inner.y + inner.height; ++y)
+      for (int x = inner.x; x < inner.x + inner.width; ++x)
+        if (d.at<float>(y, x) > 0) e.push_back(d.at<float>(y, x) - static_cast<float>(truth));
+    EXPECT_GT(e.size(), 0.9 * inner.area());
+    std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+    return e.empty() ? 99.0 : static_cast<double>(e[e.size() / 2]);
+  };
+  double worst_fit = 0, worst_cancel = 0;
+  for (double d : {7.2, 7.25, 7.4, 7.6, 7.75}) {
+    cv::Mat shifted, right;  // right(x) = left(x + d)
+    cv::warpAffine(texture, shifted, cv::Matx23d(1, 0, -d, 0, 1, 0), texture.size(), cv::INTER_LINEAR,
+                   cv::BORDER_REPLICATE);
+    shifted.convertTo(right, CV_8U);
+    auto a = fit->compute(left, right);
+    auto b = cancel->compute(left, right);
+    ASSERT_TRUE(a.ok() && b.ok());
+    const double ea = median_error(*a, d), eb = median_error(*b, d);
+    std::printf("[subpixel] d %.2f: median error fit %+.3f px, cancel %+.3f px\n", d, ea, eb);
+    worst_fit = std::max(worst_fit, std::abs(ea));
+    worst_cancel = std::max(worst_cancel, std::abs(eb));
+  }
+  EXPECT_GT(worst_fit, 0.2);  // the locking is there to cancel
+  EXPECT_LT(worst_cancel, 0.15);
+  EXPECT_LT(worst_cancel, 0.6 * worst_fit);
+  // Whole disparities stay right (within a quarter pixel everywhere, unbiased), and invalid
+  // pixels stay invalid.
+  cv::Mat l13, r13;
+  shifted_pair({400, 240}, 13, 1, &l13, &r13);
+  auto whole = cancel->compute(l13, r13);
+  ASSERT_TRUE(whole.ok());
+  cv::Mat err;
+  cv::absdiff((*whole)(inner), 13.0, err);
+  EXPECT_EQ(cv::countNonZero(err > 0.25), 0);
+  EXPECT_LT(std::abs(median_error(*whole, 13.0)), 0.05);
+  EXPECT_EQ(whole->at<float>(120, 2), StereoMatcher::kInvalidDisparity);
 }
 
 TEST_F(StereoTest, MinDisparityShiftsTheSearchRange) {

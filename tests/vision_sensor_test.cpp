@@ -224,6 +224,14 @@ TEST(VisionSensorHost, UnknownSensorsAndBadParametersNameTheCameraLine) {
   auto unknown = VisionSensorHost::create(sc, nullptr);
   ASSERT_FALSE(unknown.ok());
   EXPECT_NE(unknown.error().str().find("colour"), std::string::npos) << unknown.error().str();
+
+  cam.plugin = "planview";
+  cam.params.clear();
+  cam.params["subpixel"] = {std::string("magic"), 44};
+  auto subpixel = VisionSensorHost::create(sc, nullptr);
+  ASSERT_FALSE(subpixel.ok());
+  EXPECT_NE(subpixel.error().str().find("subpixel"), std::string::npos) << subpixel.error().str();
+  EXPECT_NE(subpixel.error().str().find("fit or cancel"), std::string::npos) << subpixel.error().str();
 }
 
 }  // namespace
