@@ -225,9 +225,10 @@ TEST(Cli, BenchStereoTimesOurMatcherBesideOpenCv) {
                              out.string());
   ASSERT_EQ(o.code, 0) << o.out;
   const auto j = nlohmann::json::parse(slurp(out));
-  ASSERT_EQ(j.size(), 2u);
+  ASSERT_EQ(j.size(), 3u);
   EXPECT_EQ(j[0]["matcher"], "SGBM");
   EXPECT_EQ(j[1]["matcher"], "BM");
+  EXPECT_EQ(j[2]["matcher"], "SGBM+h");  // with the half-pixel pass: two SGBM passes
   EXPECT_EQ(j[0]["width"], 640);
   EXPECT_GT(j[1]["opencv_direct_median_ms"].get<double>(), 0.0);
   const Output bad = vigil_cmd("bench stereo --left /no/such.png --right /no/such.png");

@@ -183,10 +183,14 @@ void add_bench_camera_commands(CLI::App* bench) {
                 std::filesystem::path(lp).filename().c_str(), l.cols, l.rows, so->num_disparities, so->repeats);
     std::printf("%6s %24s %24s %20s\n", "", "vigil StereoMatcher ms", "OpenCV direct ms", "MISSION.md peer ms");
     nlohmann::ordered_json results = nlohmann::ordered_json::array();
-    for (const auto algo : {vision::StereoAlgorithm::kSGBM, vision::StereoAlgorithm::kBM}) {
+    // The third row is SGBM with the half-pixel pass (subpixel: cancel, the planview sensor's
+    // default) beside OpenCV's single SGBM call.
+    for (const int row : {0, 1, 2}) {
+      const auto algo = row == 1 ? vision::StereoAlgorithm::kBM : vision::StereoAlgorithm::kSGBM;
       vision::StereoMatcherParams p =
           algo == vision::StereoAlgorithm::kBM ? vision::StereoMatcherParams::bm() : vision::StereoMatcherParams{};
       p.num_disparities = so->num_disparities;
+      p.half_pixel_pass = row == 2;
       auto m = vision::StereoMatcher::create(p);
       if (!m) throw Exit{report(m.error())};
       // OpenCV direct, with the same parameters, 16-bit fixed-point output.
@@ -226,7 +230,7 @@ void add_bench_camera_commands(CLI::App* bench) {
       std::sort(ours.begin(), ours.end());
       std::sort(direct.begin(), direct.end());
       const double mo = ours[ours.size() / 2], md = direct[direct.size() / 2];
-      const char* name = algo == vision::StereoAlgorithm::kBM ? "BM" : "SGBM";
+      const char* name = row == 1 ? "BM" : row == 2 ? "SGBM+h" : "SGBM";
       std::printf("%6s %24.2f %24.2f %20s\n", name, mo, md, algo == vision::StereoAlgorithm::kBM ? "13" : "52");
       results.push_back({{"matcher", name}, {"width", l.cols}, {"height", l.rows}, {"vigil_median_ms", mo},
                          {"opencv_direct_median_ms", md}});
