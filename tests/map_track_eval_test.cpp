@@ -144,6 +144,17 @@ TEST(MapTrackEval, RangeClassCameraAndCarriedFilters) {
   EXPECT_EQ(fov->overall.num_objects, 2);  // A 27 deg and bag1 39 deg off the axis; r1 (56 deg) and far outside
   EXPECT_EQ(fov->overall.num_predictions, 2);  // tracks 1 (cam a) and 9 (cam b) on A
 
+  // Ground truth the camera cannot see (behind a wall, here x > 1.5) is not counted; a track
+  // there still is (a track behind a wall is the tracker's error).
+  MapTrackEvalOptions walls;
+  walls.camera = "a";
+  walls.truth_visible = [](double x, double) { return x <= 1.5; };
+  auto seen = evaluate_map_tracks(gt, tracks, walls);
+  ASSERT_TRUE(seen) << seen.error().str();
+  EXPECT_EQ(seen->overall.num_objects, 2);      // A and bag1; r1 (x 2) and far (x 20) hidden
+  EXPECT_EQ(seen->overall.num_predictions, 3);  // tracks 1, 2 and 3 all count
+  EXPECT_EQ(seen->overall.num_false_positives, 2);
+
   o.classes = {TrackClass::kRobot};
   auto robots = evaluate_map_tracks(gt, tracks, o);
   ASSERT_TRUE(robots) << robots.error().str();

@@ -107,12 +107,6 @@ void run(World& w, F check) {
   }
 }
 
-const GroundTruthEvent* find_event(const World& w, const std::string& kind) {
-  for (const auto& e : w.events())
-    if (e.kind == kind) return &e;
-  return nullptr;
-}
-
 }  // namespace
 
 TEST(World, PeopleNeverPassThroughWallsAndReachTheirGoal) {

@@ -245,7 +245,7 @@ Result<MapTrackEvalResult> evaluate_map_tracks(const std::vector<GroundTruthTick
           y = ea.y + (eb.y - ea.y) * frac;
         }
       }
-      if (!in_view(x, y)) continue;
+      if (!in_view(x, y) || (opt.truth_visible && !opt.truth_visible(x, y))) continue;
       const int64_t id = object_ids.emplace(e.id, static_cast<int64_t>(object_ids.size())).first->second;
       const MotItem item{id, x, y, 0, 0};
       all_objects.push_back(item);

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -57,6 +58,10 @@ struct MapTrackEvalOptions {
   // of camera_yaw (half the camera's horizontal field of view)
   std::optional<double> half_fov;
   double camera_yaw = 0;            // rad, heading of the optical axis in the map frame
+  // Only ground truth for which this is true (null: all); `vigil eval --in-view` gives "not
+  // behind a wall of the map as the camera sees it". Tracks are not filtered by it: a track behind
+  // a wall is the tracker's error.
+  std::function<bool(double x, double y)> truth_visible;
   std::vector<TrackClass> classes;  // only these classes, ground truth and tracks; empty = all
   bool exclude_carried = false;     // leave out objects while someone carries them
   double camera_period_s = 0;       // camera frame period; 0 = the commonest gap between track stamps

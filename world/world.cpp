@@ -698,4 +698,26 @@ Status World::advance() {
   return Status::Ok();
 }
 
+OccupancyGrid sight_map(const World& world, double eye_height) {
+  OccupancyGrid g = world.map();
+  const double r = g.resolution();
+  for (const auto& f : world.furniture()) {
+    if (f.height >= eye_height) continue;
+    const double c = std::cos(f.pose.yaw), sn = std::sin(f.pose.yaw);
+    const double hx = f.size_x / 2 + r, hy = f.size_y / 2 + r, reach = std::hypot(hx, hy);
+    int x0, y0, x1, y1;
+    if (!g.world_to_cell({f.pose.x - reach, f.pose.y - reach}, &x0, &y0)) x0 = y0 = 0;
+    if (!g.world_to_cell({f.pose.x + reach, f.pose.y + reach}, &x1, &y1)) x1 = g.width() - 1, y1 = g.height() - 1;
+    for (int cy = std::max(0, std::min(y0, y1)); cy <= std::min(g.height() - 1, std::max(y0, y1)); ++cy) {
+      for (int cx = std::max(0, std::min(x0, x1)); cx <= std::min(g.width() - 1, std::max(x0, x1)); ++cx) {
+        const Vec2 p = g.cell_center(cx, cy);
+        const double lx = c * (p.x - f.pose.x) + sn * (p.y - f.pose.y);
+        const double ly = -sn * (p.x - f.pose.x) + c * (p.y - f.pose.y);
+        if (std::abs(lx) <= hx && std::abs(ly) <= hy) g.set(cx, cy, Cell::kFree);
+      }
+    }
+  }
+  return g;
+}
+
 }  // namespace vigil

@@ -176,4 +176,8 @@ class World : public WorldView {
   uint64_t steps_ = 0;
 };
 
+// The map as a camera's lines of sight see it: furniture lower than `eye_height` (m; tables,
+// under a camera on the wall) is seen over, so its cells are cleared; walls stay.
+OccupancyGrid sight_map(const World& world, double eye_height);
+
 }  // namespace vigil

@@ -45,7 +45,7 @@ class TruthSensor : public VisionSensor {
 
   Status tick(const vision::StereoFrame*, const World& world, std::vector<vision::Track>* out) override {
     if (!walls_) {
-      sight_map_ = sight_map(world);
+      sight_map_ = sight_map(world, ctx_.model.map_from_optical().translation().z());
       walls_ = std::make_unique<WallRaycaster>(sight_map_);
     }
     const SimTime now = world.time();
@@ -166,31 +166,6 @@ class TruthSensor : public VisionSensor {
       if (world.map().is_free(p) && visible(p, 0.0)) return p;
     }
     return std::nullopt;
-  }
-
-  // The map as lines of sight see it: furniture lower than the camera (tables) is seen over,
-  // so its cells are cleared; walls stay.
-  OccupancyGrid sight_map(const World& world) const {
-    OccupancyGrid g = world.map();
-    const double cam_z = ctx_.model.map_from_optical().translation().z();
-    const double r = g.resolution();
-    for (const auto& f : world.furniture()) {
-      if (f.height >= cam_z) continue;
-      const double c = std::cos(f.pose.yaw), sn = std::sin(f.pose.yaw);
-      const double hx = f.size_x / 2 + r, hy = f.size_y / 2 + r, reach = std::hypot(hx, hy);
-      int x0, y0, x1, y1;
-      if (!g.world_to_cell({f.pose.x - reach, f.pose.y - reach}, &x0, &y0)) x0 = y0 = 0;
-      if (!g.world_to_cell({f.pose.x + reach, f.pose.y + reach}, &x1, &y1)) x1 = g.width() - 1, y1 = g.height() - 1;
-      for (int cy = std::max(0, std::min(y0, y1)); cy <= std::min(g.height() - 1, std::max(y0, y1)); ++cy) {
-        for (int cx = std::max(0, std::min(x0, x1)); cx <= std::min(g.width() - 1, std::max(x0, x1)); ++cx) {
-          const Vec2 p = g.cell_center(cx, cy);
-          const double lx = c * (p.x - f.pose.x) + sn * (p.y - f.pose.y);
-          const double ly = -sn * (p.x - f.pose.x) + c * (p.y - f.pose.y);
-          if (std::abs(lx) <= hx && std::abs(ly) <= hy) g.set(cx, cy, Cell::kFree);
-        }
-      }
-    }
-    return g;
   }
 
   SensorContext ctx_;

@@ -25,7 +25,9 @@
 #include "vision/map_track_eval.h"
 #include "vision/mot_metrics.h"
 #include "vision/track_io.h"
+#include "world/ranger.h"
 #include "world/scenario.h"
+#include "world/world.h"
 
 namespace vigil::cli {
 namespace {
@@ -269,6 +271,19 @@ void run_map_eval(const Opts& o) {
       const double hfov = cam->fx ? 2 * std::atan(0.5 * cam->width / *cam->fx) : cam->hfov.value_or(60 * std::numbers::pi / 180);
       eo.half_fov = 0.5 * hfov;
       eo.camera_yaw = cam->yaw;
+      // Not behind a wall: the map as the camera sees it (furniture lower than it seen over).
+      WorldOptions wo;
+      wo.controllers = false;
+      auto world = World::create(*sc, wo);
+      if (!world) throw Exit{report(world.error())};
+      auto sight = std::make_shared<OccupancyGrid>(sight_map(**world, cam->position.z));
+      auto walls = std::make_shared<WallRaycaster>(*sight);
+      const Vec2 c{cam->position.x, cam->position.y};
+      eo.truth_visible = [sight, walls, c](double x, double y) {
+        const double range = std::hypot(x - c.x, y - c.y);
+        if (range < 1e-6) return true;
+        return walls->raycast_dir(c, {(x - c.x) / range, (y - c.y) / range}, range) >= range - 0.05;
+      };
     }
   }
   if (o.in_view && o.scenario.empty())
@@ -363,7 +378,7 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--scenario", o->scenario, "scenario file to read the --camera's position and rate from");
   cmd->add_option("--camera-rate", o->camera_rate, "camera frame rate in Hz (default: from --scenario, else from the track stamps)");
   cmd->add_option("--classes", o->classes, "only these classes (person, bag, robot, unknown)")->delimiter(',');
-  cmd->add_flag("--in-view", o->in_view, "only ground truth and tracks inside the --scenario camera's horizontal field of view");
+  cmd->add_flag("--in-view", o->in_view, "only ground truth and tracks inside the --scenario camera's horizontal field of view, and ground truth not behind a wall of its map");
   cmd->add_flag("--exclude-carried", o->exclude_carried, "leave out objects while a person carries them");
   cmd->add_option("--tracks", o->tracks, "tracks file (default RUN_DIR/tracks.jsonl)");
   cmd->add_option("--mot-gt", o->mot_gt, "MOTChallenge ground truth (frame,id,x,y,w,h,conf,...)");
