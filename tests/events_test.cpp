@@ -5,6 +5,8 @@
 // byte for a seed (camera_events.jsonl) and reads back as the events the host kept.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -14,6 +16,8 @@
 #include "tests/test_util.h"
 #include "vision/event.h"
 #include "vision/event_eval.h"
+#include "vision/map_track_eval.h"
+#include "vision/track_io.h"
 #include "world/runner.h"
 #include "world/sha256.h"
 
@@ -176,6 +180,38 @@ TEST(RenderedEvents, LeftBagFromSgbmPlanViewTracksIsReportedInTime) {
   ASSERT_EQ(ev->matches.size(), 1u);
   EXPECT_LE(ev->matches[0].latency_s, 2.0);
   EXPECT_LE(ev->matches[0].error_m, 0.3);
+
+  // The same run's tracks against the ground truth where cam_corridor looks (within 8 m, inside
+  // its field of view, carried bags left out): the quality targets with SGBM depth.
+  auto gt = vision::load_ground_truth_ticks(out / "ground_truth.jsonl");
+  ASSERT_TRUE(gt.ok()) << gt.error().str();
+  auto tracks = vision::load_tracks_jsonl(out / "tracks.jsonl");
+  ASSERT_TRUE(tracks.ok()) << tracks.error().str();
+  const CameraSpec* cam = nullptr;
+  for (const auto& c : sc->cameras)
+    if (c.id == "cam_corridor") cam = &c;
+  ASSERT_NE(cam, nullptr);
+  vision::MapTrackEvalOptions eo;
+  eo.camera = "cam_corridor";
+  eo.max_range = 8.0;
+  eo.camera_x = cam->position.x;
+  eo.camera_y = cam->position.y;
+  eo.half_fov = 0.5 * cam->hfov.value_or(60 * M_PI / 180);
+  eo.camera_yaw = cam->yaw;
+  eo.exclude_carried = true;
+  eo.classes = {vision::TrackClass::kPerson, vision::TrackClass::kBag};
+  auto q = vision::evaluate_map_tracks(*gt, *tracks, eo);
+  ASSERT_TRUE(q.ok()) << q.error().str();
+  for (const auto& [cls, m] : q->per_class) {
+    const std::string name(vision::to_string(cls));
+    std::printf("[tracking] %s: MOTA %.3f MOTP %.3f m, %lld switches, %lld objects\n", name.c_str(), m.mota, m.motp,
+                static_cast<long long>(m.num_switches), static_cast<long long>(m.num_objects));
+    EXPECT_GE(m.mota, 0.9) << name;
+    EXPECT_LE(m.motp, 0.15) << name;
+    EXPECT_EQ(m.num_switches, 0) << name;
+    EXPECT_GT(m.num_objects, 50) << name;
+  }
+  EXPECT_EQ(q->per_class.size(), 2u);
   fs::remove_all(out);
 }
 
