@@ -25,12 +25,7 @@ using test::Output;
 using test::slurp;
 using test::vigil_cmd;
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vigil_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return test::fresh_temp_dir("cli", name); }
 
 fs::path scenario(const std::string& name) { return test::source_dir() / "scenarios" / (name + ".yaml"); }
 

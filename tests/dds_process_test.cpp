@@ -72,12 +72,7 @@ bool wait_for_events(const fs::path& file, size_t n, double timeout_s) {
   return false;
 }
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vigil_dds_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return test::fresh_temp_dir("dds", name); }
 
 std::string session(const std::string& name) { return name + "-" + std::to_string(::getpid()); }
 

@@ -25,12 +25,7 @@ using test::Output;
 using test::slurp;
 using test::vigil_cmd;
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("vigil_eval_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return test::fresh_temp_dir("eval", name); }
 
 std::string num(double v) {
   char buf[32];

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -40,6 +41,16 @@ inline Output vigil_cmd(const std::string& args, bool merge_stderr = true) {
 }
 
 // A whole file as bytes ("" when it cannot be read).
+// A fresh, empty folder under the system's temp folder, unique to this process:
+// vigil_<prefix>_<name>_<pid>.
+inline std::filesystem::path fresh_temp_dir(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path d =
+      std::filesystem::temp_directory_path() / ("vigil_" + prefix + "_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
 inline std::string slurp(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);
   std::stringstream ss;
