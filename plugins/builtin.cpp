@@ -1,4 +1,5 @@
 // The static plugin registry: every plugin shipped with Vigil, compiled in.
+#include "plugins/builtin.h"
 #include "plugins/plugin_export.h"
 
 VIGIL_PLUGIN_FACTORY_DECL(waypoint_follower)
@@ -9,6 +10,12 @@ namespace vigil {
 void register_builtin_plugins(PluginRegistry& registry) {
   registry.add_builtin("waypoint_follower", plugins::create_waypoint_follower);
   registry.add_builtin("wander", plugins::create_wander);
+}
+
+std::shared_ptr<PluginRegistry> builtin_plugin_registry() {
+  auto registry = std::make_shared<PluginRegistry>();
+  register_builtin_plugins(*registry);
+  return registry;
 }
 
 }  // namespace vigil

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "plugins/builtin.h"
 #include "plugins/dds_bridge/event_relay.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tests/test_util.h"
@@ -42,6 +43,7 @@ EventRun run_with_truth_sensors(const std::string& name, const fs::path& out, ui
   EXPECT_TRUE(host.ok()) << (host.ok() ? "" : host.error().str());
   if (!host) return {};
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.out_dir = out;
   ro.video = false;
   ro.observers = {host->get()};
@@ -120,6 +122,7 @@ std::string run_through_dds(const std::string& name, const fs::path& out) {
   dds::DdsEventRelay* rp = relay->get();
   (*host)->set_event_sink([rp](const vision::Event& e) { return rp->publish(e); });
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.out_dir = out;
   ro.video = false;
   ro.observers = {relay->get(), host->get()};
@@ -163,6 +166,7 @@ TEST(RenderedEvents, LeftBagFromSgbmPlanViewTracksIsReportedInTime) {
   (*host)->set_event_sink([rp](const vision::Event& e) { return rp->publish(e); });
   const fs::path out = fs::temp_directory_path() / "vigil_events_rendered";
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.out_dir = out;
   ro.video = false;
   ro.observers = {relay->get(), host->get(), &rig};
@@ -218,7 +222,9 @@ TEST(RenderedEvents, LeftBagFromSgbmPlanViewTracksIsReportedInTime) {
 TEST(RunEvents, MarkedObjectsAreTheScenariosUnauthorisedOnes) {
   auto sc = load_scenario(test::source_dir() / "scenarios" / "dis_lab_unauthorised.yaml");
   ASSERT_TRUE(sc.ok()) << sc.error().str();
-  auto world = World::create(*sc);
+  WorldOptions wo;
+  wo.plugins = builtin_plugin_registry();
+  auto world = World::create(*sc, wo);
   ASSERT_TRUE(world.ok()) << world.error().str();
   const vision::ActivityRuleParams p = activity_rule_params(**world);
   ASSERT_EQ(p.watched.size(), 1u);

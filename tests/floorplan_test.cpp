@@ -15,11 +15,13 @@
 #include "tests/test_util.h"
 #include "world/floorplan.h"
 #include "world/map.h"
+#include "planning/grid/grid_astar.h"
 
 namespace vigil {
 namespace {
 
 namespace fs = std::filesystem;
+using planning::GridPathPlanner;
 
 // Reads a whole file as bytes.
 std::string read_bytes(const fs::path& path) {

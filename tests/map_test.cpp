@@ -2,6 +2,7 @@
 // grid queries (cells, free discs, exact ray casting), wall rectangles, the grid path planner,
 // saving, and the errors every malformed map file must give (file, line and key named).
 #include "world/map.h"
+#include "planning/grid/grid_astar.h"
 
 #include <gtest/gtest.h>
 
@@ -24,6 +25,7 @@ namespace vigil {
 namespace {
 
 namespace fs = std::filesystem;
+using planning::GridPathPlanner;
 
 fs::path labs_dir() { return test::shared_data() / "maps" / "DIAG_labs"; }
 fs::path floor1_dir() { return test::shared_data() / "maps" / "DIAG_floor1"; }

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include "plugins/builtin.h"
 #include "tests/test_util.h"
 #include "world/plugin.h"
 #include "world/world.h"
@@ -122,6 +123,7 @@ TEST(WaypointFollower, FromSharedLibraryDrivesAroundAWallThroughItsWaypoints) {
   r.ranger.enabled = true;
   sc.robots = {r};
   WorldOptions wo;
+  wo.plugins = builtin_plugin_registry();
   wo.plugin_dirs = {test::plugin_dir()};
   wo.prefer_shared_plugins = true;
   auto w = World::create(sc, wo);

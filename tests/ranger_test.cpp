@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "world/ranger.h"
-#include "world/rng.h"
+#include "common/rng.h"
 
 namespace vigil {
 namespace {

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "plugins/builtin.h"
 #include "plugins/stereo_camera/osmesa_renderer.h"
 #include "plugins/stereo_camera/render_scene.h"
 #include "tests/test_util.h"
@@ -209,6 +210,7 @@ std::unique_ptr<World> world_at(const std::string& scenario, double seconds) {
   EXPECT_TRUE(sc.ok()) << (sc.ok() ? "" : sc.error().str());
   if (!sc.ok()) return nullptr;
   WorldOptions wo;
+  wo.plugins = builtin_plugin_registry();
   wo.plugin_dirs = {test::plugin_dir()};
   auto w = World::create(*sc, wo);
   EXPECT_TRUE(w.ok()) << (w.ok() ? "" : w.error().str());

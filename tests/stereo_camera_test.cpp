@@ -12,6 +12,7 @@
 
 #include <opencv2/videoio.hpp>
 
+#include "plugins/builtin.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "tests/test_util.h"
 #include "world/runner.h"
@@ -159,6 +160,7 @@ TEST(CameraRig, RendersEveryCameraAtItsRateFeedsConsumersAndWritesVideos) {
     return Status::Ok();
   });
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.out_dir = out;
   ro.observers.push_back(&rig);
   auto sum = run_scenario(sc, ro);
@@ -201,6 +203,7 @@ TEST(CameraRig, CamerasAtDifferentRatesTickEachAtItsOwn) {
     return Status::Ok();
   });
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.video = false;
   ro.observers = {&rig};
   ASSERT_TRUE(run_scenario(sc, ro).ok());
@@ -223,6 +226,7 @@ TEST(CameraRig, ConsumerErrorsStopTheRun) {
   });
   EXPECT_TRUE(rig.active());
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.observers.push_back(&rig);
   auto sum = run_scenario(sc, ro);
   ASSERT_FALSE(sum.ok());

@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "plugins/builtin.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tests/test_util.h"
 #include "vision/track_io.h"
@@ -61,6 +62,7 @@ RunResult run_with(const Scenario& sc, const fs::path& out = {}) {
   auto host = VisionSensorHost::create(sc, nullptr);
   EXPECT_TRUE(host.ok()) << (host.ok() ? "" : host.error().str());
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.out_dir = out;
   ro.video = false;
   ro.observers = {&r.truth, host->get()};

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "plugins/builtin.h"
 #include "tests/test_util.h"
 #include "world/runner.h"
 #include "world/world.h"
@@ -91,6 +92,7 @@ ObjectSpec object(const std::string& id, ObjectKind kind, double x, double y) {
 
 std::unique_ptr<World> make_world(const Scenario& sc) {
   WorldOptions wo;
+  wo.plugins = builtin_plugin_registry();
   wo.plugin_dirs = {test::plugin_dir()};
   auto w = World::create(sc, wo);
   EXPECT_TRUE(w.ok()) << (w.ok() ? "" : w.error().str());
@@ -353,6 +355,7 @@ TEST(Runner, ObserversSeeEveryStepBetweenStartAndFinish) {
   } failing;
   Scenario sc = base_scenario(2);
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.observers = {&counter};
   auto sum = run_scenario(sc, ro);
   ASSERT_TRUE(sum.ok()) << sum.error().str();
@@ -384,6 +387,7 @@ TEST(World, SameSeedSameHashOtherSeedWithNoiseDiffers) {
     sc.robots.push_back(r);
   }
   RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
   ro.world.plugin_dirs = {test::plugin_dir()};
   auto first = run_scenario(sc, ro);
   auto second = run_scenario(sc, ro);

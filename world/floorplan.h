@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/map.h"
 #include "world/status.h"
 

@@ -2,6 +2,8 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
+
 namespace vigil {
 
 PluginRegistry::~PluginRegistry() {
@@ -13,7 +15,9 @@ void PluginRegistry::add_builtin(const std::string& name,
   builtins_[name] = std::move(factory);
 }
 
-void PluginRegistry::add_search_dir(const std::filesystem::path& dir) { search_dirs_.push_back(dir); }
+void PluginRegistry::add_search_dir(const std::filesystem::path& dir) {
+  if (std::find(search_dirs_.begin(), search_dirs_.end(), dir) == search_dirs_.end()) search_dirs_.push_back(dir);
+}
 
 std::optional<std::filesystem::path> PluginRegistry::find_library(const std::string& name) const {
   for (const auto& dir : search_dirs_) {

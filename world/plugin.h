@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/map.h"
 #include "world/params.h"
 #include "world/status.h"
@@ -99,7 +99,7 @@ using PluginEntryFn = const PluginEntry* (*)();
 // `libvigil_plugin_<name>.so` in each search directory.
 class PluginRegistry {
  public:
-  PluginRegistry() = default;  // empty: call register_builtin_plugins() to add the built-ins
+  PluginRegistry() = default;  // empty: plugins/builtin.h adds the built-ins
   ~PluginRegistry();
   PluginRegistry(const PluginRegistry&) = delete;
   PluginRegistry& operator=(const PluginRegistry&) = delete;
@@ -123,8 +123,5 @@ class PluginRegistry {
   std::map<std::string, std::string> origins_;
   bool prefer_shared_ = false;
 };
-
-// Registers the plugins compiled into vigil_plugins_builtin (defined there).
-void register_builtin_plugins(PluginRegistry& registry);
 
 }  // namespace vigil

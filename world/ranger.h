@@ -6,10 +6,10 @@
 
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/map.h"
 #include "world/plugin.h"
-#include "world/rng.h"
+#include "common/rng.h"
 #include "world/scenario.h"
 
 namespace vigil {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/status.h"
 
 namespace vigil {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/params.h"
 #include "world/status.h"
 

@@ -119,7 +119,7 @@ Status World::build(const WorldOptions& options) {
   walls_ = extract_wall_boxes(map_);
   double max_person_radius = 0.25;
   for (const auto& p : scenario_.people) max_person_radius = std::max(max_person_radius, p.radius);
-  person_paths_ = std::make_unique<GridPathPlanner>(map_, std::max(kPersonClearance, max_person_radius + 0.05));
+  person_paths_ = std::make_unique<planning::GridPathPlanner>(map_, std::max(kPersonClearance, max_person_radius + 0.05));
 
   b2_ = std::make_unique<b2World>(b2Vec2(0.0f, 0.0f));
   {
@@ -139,10 +139,11 @@ Status World::build(const WorldOptions& options) {
   wall_rays_ = std::make_unique<WallRaycaster>(map_);
 
   // Robots.
-  registry_ = std::make_unique<PluginRegistry>();
-  register_builtin_plugins(*registry_);
-  for (const auto& d : options.plugin_dirs) registry_->add_search_dir(d);
-  registry_->set_prefer_shared(options.prefer_shared_plugins);
+  registry_ = options.plugins;
+  if (registry_) {
+    for (const auto& d : options.plugin_dirs) registry_->add_search_dir(d);
+    if (options.prefer_shared_plugins) registry_->set_prefer_shared(true);
+  }
   robots_.resize(scenario_.robots.size());
   for (size_t i = 0; i < scenario_.robots.size(); ++i) {
     RobotEntity& r = robots_[i];
@@ -187,6 +188,10 @@ Status World::build(const WorldOptions& options) {
     r.body->CreateFixture(&fix);
 
     if (!r.spec.controller.empty() && options.controllers) {
+      if (!registry_) {
+        return bad_input(file, r.spec.line, key + ".controller",
+                         "no plugin registry was given to the world to create '" + r.spec.controller + "'");
+      }
       auto plugin = registry_->create(r.spec.controller);
       if (!plugin) {
         return bad_input(file, r.spec.line, key + ".controller", plugin.error().message);

@@ -13,11 +13,12 @@
 #include <vector>
 
 #include "world/floorplan.h"
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/map.h"
+#include "planning/grid/grid_astar.h"
 #include "world/plugin.h"
 #include "world/ranger.h"
-#include "world/rng.h"
+#include "common/rng.h"
 #include "world/robot_model.h"
 #include "world/scenario.h"
 #include "world/status.h"
@@ -96,6 +97,9 @@ struct GroundTruthEvent {
 };
 
 struct WorldOptions {
+  // Where controllers come from: the caller hands the world its registry (the built-ins are in
+  // plugins/builtin.h). Null: no registry, so a scenario robot with a controller is an error.
+  std::shared_ptr<PluginRegistry> plugins;
   std::vector<std::filesystem::path> plugin_dirs;
   bool prefer_shared_plugins = false;  // load controllers from .so even when built in
   bool controllers = true;             // false: robots stand still (tests)
@@ -156,9 +160,9 @@ class World : public WorldView {
   OccupancyGrid map_;
   std::vector<WallBox> walls_;
   std::vector<FloorplanFurniture> furniture_;  // from a floorplan map; empty otherwise
-  std::unique_ptr<GridPathPlanner> person_paths_;
+  std::unique_ptr<planning::GridPathPlanner> person_paths_;
   std::unique_ptr<b2World> b2_;
-  std::unique_ptr<PluginRegistry> registry_;
+  std::shared_ptr<PluginRegistry> registry_;
   std::unique_ptr<ObstacleIndex> bodies_index_;
   std::unique_ptr<WallRaycaster> wall_rays_;
   std::vector<RobotEntity> robots_;

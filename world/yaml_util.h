@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "world/geometry.h"
+#include "common/geometry.h"
 #include "world/status.h"
 
 namespace vigil::yaml_input {

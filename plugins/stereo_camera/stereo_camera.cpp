@@ -3,8 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "plugins/builtin.h"
 #include "vision/image_sources.h"
-#include "world/rng.h"
+#include "common/rng.h"
 
 namespace vigil::render {
 
@@ -20,7 +21,9 @@ Result<std::unique_ptr<RenderedStereoSource>> RenderedStereoSource::open(const S
   src->camera_ = *spec;
   src->scenario_name_ = scenario.name;
   src->max_frames_ = options.max_frames;
-  auto world = World::create(scenario, options.world);
+  WorldOptions wo = options.world;
+  if (!wo.plugins) wo.plugins = builtin_plugin_registry();  // robots drive as in a run
+  auto world = World::create(scenario, wo);
   if (!world) return world.error();
   src->world_ = std::move(*world);
   RendererOptions ro = options.renderer;

@@ -10,7 +10,7 @@
 
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "world/ranger.h"
-#include "world/rng.h"
+#include "common/rng.h"
 
 namespace vigil::sensors {
 

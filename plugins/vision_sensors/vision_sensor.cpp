@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <mutex>
 
-#include "world/rng.h"
+#include "common/rng.h"
 
 namespace vigil::sensors {
 

@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "plugins/plugin_export.h"
-#include "world/rng.h"
+#include "common/rng.h"
 
 namespace vigil::plugins {
 namespace {

@@ -10,18 +10,19 @@
 #include <memory>
 #include <mutex>
 
+#include "planning/grid/grid_astar.h"
 #include "plugins/plugin_export.h"
 
 namespace vigil::plugins {
 namespace {
 
 // One path planner per (map, clearance), shared by every robot on that map.
-const GridPathPlanner& shared_planner(const OccupancyGrid* map, double clearance) {
+const planning::GridPathPlanner& shared_planner(const OccupancyGrid* map, double clearance) {
   static std::mutex mu;
-  static std::map<std::pair<const OccupancyGrid*, double>, std::unique_ptr<GridPathPlanner>> cache;
+  static std::map<std::pair<const OccupancyGrid*, double>, std::unique_ptr<planning::GridPathPlanner>> cache;
   std::lock_guard<std::mutex> lock(mu);
   auto& slot = cache[{map, clearance}];
-  if (!slot) slot = std::make_unique<GridPathPlanner>(*map, clearance);
+  if (!slot) slot = std::make_unique<planning::GridPathPlanner>(*map, clearance);
   return *slot;
 }
 
@@ -125,7 +126,7 @@ class WaypointFollower : public Plugin {
   std::vector<Vec2> waypoints_;
   bool loop_ = true, done_ = false;
   double speed_ = 0.4, tolerance_ = 0.3, gain_ = 2.0, avoid_ = 0.6;
-  const GridPathPlanner* planner_ = nullptr;
+  const planning::GridPathPlanner* planner_ = nullptr;
   size_t next_ = 0;
   std::vector<Vec2> path_;
   size_t path_index_ = 0;

@@ -7,10 +7,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "plugins/builtin.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/map.h"
-#include "world/rng.h"
+#include "common/rng.h"
 #include "world/world.h"
 
 namespace vigil::cli {
@@ -103,6 +104,7 @@ void add_bench_command(CLI::App& app) {
         throw Exit{report(bad_input(map_path.string(), 0, "--robots", "room for only " + std::to_string(placed.size()) + " robots"))};
       }
       WorldOptions wo;
+      wo.plugins = builtin_plugin_registry();
       wo.plugin_dirs = plugin_search_path();
       auto world = World::create(sc, wo);
       if (!world) throw Exit{report(world.error())};

@@ -18,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "plugins/builtin.h"
 #include "plugins/stereo_camera/osmesa_renderer.h"
 #include "plugins/stereo_camera/render_scene.h"
 #include "plugins/stereo_camera/stereo_camera.h"
@@ -102,6 +103,7 @@ void add_bench_camera_commands(CLI::App* bench) {
     if (!found) throw Exit{report(found.error())};
     const CameraSpec* cam = *found;
     WorldOptions wo;
+    wo.plugins = builtin_plugin_registry();
     wo.plugin_dirs = plugin_search_path();
     auto world = World::create(*scenario, wo);
     if (!world) throw Exit{report(world.error())};

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "plugins/builtin.h"
 #include "tools/vigil/commands.h"
 #include "vision/event.h"
 #include "vision/event_eval.h"
@@ -273,6 +274,7 @@ void run_map_eval(const Opts& o) {
       eo.camera_yaw = cam->yaw;
       // Not behind a wall: the map as the camera sees it (furniture lower than it seen over).
       WorldOptions wo;
+      wo.plugins = builtin_plugin_registry();
       wo.controllers = false;
       auto world = World::create(*sc, wo);
       if (!world) throw Exit{report(world.error())};

@@ -19,6 +19,7 @@
 #include <optional>
 #include <thread>
 
+#include "plugins/builtin.h"
 #include "plugins/dds_bridge/dds.h"
 #include "plugins/dds_bridge/event_relay.h"
 #include "plugins/dds_bridge/event_server.h"
@@ -165,6 +166,7 @@ void add_camera_node(CLI::App& app) {
     });
     Pacer pacer(o->speed);
     RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
     ro.out_dir = o->out;
     ro.duration = o->duration;
     ro.video = false;
@@ -200,6 +202,7 @@ void add_server(CLI::App& app) {
     PluginRegistry registry;
     Scenario sc = load_checked(o->scenario, &registry);
     WorldOptions wo;
+    wo.plugins = builtin_plugin_registry();
     wo.controllers = false;
     auto world = World::create(sc, wo);  // for the map
     if (!world) throw Exit{report(world.error())};

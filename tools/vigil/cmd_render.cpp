@@ -11,6 +11,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "plugins/builtin.h"
 #include "plugins/stereo_camera/osmesa_renderer.h"
 #include "plugins/stereo_camera/render_scene.h"
 #include "plugins/vision_sensors/vision_sensor.h"
@@ -103,6 +104,7 @@ void add_render_command(CLI::App& app) {
     if (ec) throw Exit{report(bad_input(opts->out, 0, "--out", "cannot create the folder: " + ec.message()))};
 
     WorldOptions wo;
+    wo.plugins = builtin_plugin_registry();
     wo.plugin_dirs = dirs;
     auto world = World::create(*scenario, wo);
     if (!world) throw Exit{report(world.error())};

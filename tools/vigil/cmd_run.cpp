@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "plugins/builtin.h"
 #include "plugins/dds_bridge/event_relay.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
@@ -58,6 +59,7 @@ void add_run_command(CLI::App& app) {
         if (c.plugin.empty()) c.plugin = opts->sensor;
     }
     RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
     ro.out_dir = opts->out.empty() ? std::filesystem::path("runs") / scenario->name : std::filesystem::path(opts->out);
     ro.seed = opts->seed;
     ro.duration = opts->duration;

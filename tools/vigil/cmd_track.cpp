@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "plugins/builtin.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
@@ -43,6 +44,7 @@ void add_track_command(CLI::App& app) {
   cmd->add_flag("--quiet,-q", o->quiet, "no progress output");
   cmd->callback([o] {
     WorldOptions wo;
+    wo.plugins = builtin_plugin_registry();
     wo.plugin_dirs = plugin_search_path();
     auto source = render::open_any_frame_source(o->source, wo);
     if (!source) throw Exit{report(source.error())};

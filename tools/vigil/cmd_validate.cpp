@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "plugins/builtin.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
