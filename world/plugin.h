@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/geometry.h"
+#include "common/laser_scan.h"
 #include "world/map.h"
 #include "world/params.h"
 #include "world/status.h"
@@ -23,14 +24,6 @@ namespace vigil {
 
 // Bumped whenever the Plugin interface changes; a library built for another version is refused.
 constexpr int kPluginAbiVersion = 1;
-
-// One laser scan, after Stage's ranger / ROS sensor_msgs/LaserScan.
-struct LaserScan {
-  SimTime stamp = 0;
-  double angle_min = 0, angle_increment = 0;  // rad, in the robot frame
-  double range_min = 0, range_max = 0;        // m
-  std::vector<float> ranges;                  // m; range_max where nothing was hit
-};
 
 // What a robot's controller may read of its own robot.
 struct RobotState {

@@ -127,6 +127,7 @@ void add_bench_command(CLI::App& app) {
   });
   add_bench_camera_commands(bench);
   add_bench_dds_commands(bench);
+  add_bench_plan_command(bench);
 }
 
 }  // namespace vigil::cli
