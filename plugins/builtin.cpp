@@ -4,12 +4,14 @@
 
 VIGIL_PLUGIN_FACTORY_DECL(waypoint_follower)
 VIGIL_PLUGIN_FACTORY_DECL(wander)
+VIGIL_PLUGIN_FACTORY_DECL(navigator)
 
 namespace vigil {
 
 void register_builtin_plugins(PluginRegistry& registry) {
   registry.add_builtin("waypoint_follower", plugins::create_waypoint_follower);
   registry.add_builtin("wander", plugins::create_wander);
+  registry.add_builtin("navigator", plugins::create_navigator);
 }
 
 std::shared_ptr<PluginRegistry> builtin_plugin_registry() {

@@ -1079,7 +1079,7 @@ void run_scenario(const std::string& scenario, const std::string& camera, double
       EXPECT_EQ(t.stamp_ns, w->time());
       out->classes[t.id] = t.cls;
       for (const RobotEntity& rb : w->robots())
-        if (std::hypot(rb.state.pose.x - t.x, rb.state.pose.y - t.y) < 0.5) out->robots[t.id] = rb.spec.id;
+        if (std::hypot(rb.pose.x - t.x, rb.pose.y - t.y) < 0.5) out->robots[t.id] = rb.spec.id;
     }
     const auto truth = visible_truth(*w, cam, 8.0);
     if (std::getenv("PV_DEBUG")) {
@@ -1089,7 +1089,7 @@ void run_scenario(const std::string& scenario, const std::string& camera, double
       for (const auto& o : w->objects())
         std::printf(" [%s %.2f,%.2f c%d]", o.spec.id.c_str(), o.pose.x, o.pose.y, o.carrier);
       for (const auto& rb : w->robots())
-        std::printf(" [%s %.2f,%.2f]", rb.spec.id.c_str(), rb.state.pose.x, rb.state.pose.y);
+        std::printf(" [%s %.2f,%.2f]", rb.spec.id.c_str(), rb.pose.x, rb.pose.y);
       std::printf(" | tracks:");
       for (const auto& t : *tracks)
         std::printf(" %d:%s(%.2f,%.2f h%.2f w%.2f c%.2f)", t.id, std::string(to_string(t.cls)).c_str(), t.x, t.y,

@@ -131,11 +131,11 @@ TEST(WaypointFollower, FromSharedLibraryDrivesAroundAWallThroughItsWaypoints) {
   double max_y = 0;
   while (!(*w)->finished()) {
     ASSERT_TRUE((*w)->advance().ok());
-    const auto& pose = (*w)->robots()[0].state.pose;
+    const auto& pose = (*w)->robots()[0].pose;
     max_y = std::max(max_y, pose.y);
     ASSERT_TRUE(g.is_free(pose.position()));
   }
-  const auto& pose = (*w)->robots()[0].state.pose;
+  const auto& pose = (*w)->robots()[0].pose;
   EXPECT_NEAR(pose.x, 9, 0.35);
   EXPECT_NEAR(pose.y, 2, 0.35);
   EXPECT_GT(max_y, 5.5);  // it went round the top of the wall

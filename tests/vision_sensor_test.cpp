@@ -42,7 +42,7 @@ struct TruthAt : RunObserver {
   std::map<SimTime, std::map<std::string, Vec2>> at;
   Status after_step(const World& w) override {
     auto& m = at[w.time()];
-    for (const auto& r : w.robots()) m["robot:" + r.spec.id] = {r.state.pose.x, r.state.pose.y};
+    for (const auto& r : w.robots()) m["robot:" + r.spec.id] = {r.pose.x, r.pose.y};
     for (const auto& p : w.people())
       if (p.present) m["person:" + p.spec.id] = {p.pose.x, p.pose.y};
     for (const auto& o : w.objects())

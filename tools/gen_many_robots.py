@@ -101,7 +101,7 @@ for i, route in enumerate([ids[:half], ids[half:]]):
     p(f"  - id: patrol{i + 1}")
     p("    urdf: ../maps/robots/erratic.urdf")
     p(f"    start: v{route[0]}")
-    p("    controller: waypoint_follower")
+    p("    controller: navigator")
     p(f"    params: {{waypoints: [{wps}], loop: true, speed: 0.5}}")
     p("    ranger: {range_max: 8, fov_deg: 180, samples: 180, noise_std: 0.01}")
     p("    odometry: {error: [0.01, 0.01, 0.1]}")

@@ -65,7 +65,7 @@ void GroundTruthLog::write_tick(const World& world) {
   };
   for (const auto& r : world.robots()) {
     sep();
-    const auto& p = r.state.pose;
+    const auto& p = r.pose;
     const auto& o = r.state.odometry;
     s += "{\"id\":" + quoted(r.spec.id) + ",\"kind\":\"robot\",\"x\":" + fixed4(p.x) + ",\"y\":" + fixed4(p.y) +
          ",\"yaw\":" + fixed4(p.yaw) + ",\"odom\":[" + fixed4(o.x) + "," + fixed4(o.y) + "," + fixed4(o.yaw) + "]}";
@@ -106,6 +106,12 @@ void GroundTruthLog::write_timeline(const World& world) {
          ",\"confirmed_ns\":" + std::to_string(e.confirmed) + ",\"people\":[" + people + "],\"object\":" +
          quoted(e.object) + ",\"owner\":" + quoted(e.owner) + ",\"x\":" + fixed4(e.where.x) + ",\"y\":" +
          fixed4(e.where.y) + ",\"z\":" + fixed4(e.where.z) + "}");
+  }
+  for (const auto& c : world.contacts()) {
+    emit("{\"type\":\"contact\",\"robot\":" + quoted(c.robot) + ",\"other\":" + quoted(c.other) +
+         ",\"other_kind\":" + quoted(c.other_kind) + ",\"start_ns\":" + std::to_string(c.start) +
+         ",\"end_ns\":" + std::to_string(c.end) + ",\"x\":" + fixed4(c.where.x) + ",\"y\":" + fixed4(c.where.y) +
+         "}");
   }
 }
 

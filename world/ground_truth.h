@@ -1,5 +1,6 @@
 // The ground-truth log (ground_truth.jsonl): one `tick` line per recorded instant with every
-// entity's id, kind and pose, then the people's `action` lines and the derived `event` lines.
+// entity's id, kind and pose, then the people's `action` lines, the derived `event` lines and
+// the robots' `contact` lines (who touched what, from when to when).
 // Numbers are printed with fixed precision so the same run gives the same bytes; the SHA-256 of
 // those bytes is kept as they are written.
 #pragma once

@@ -23,15 +23,44 @@
 namespace vigil {
 
 // Bumped whenever the Plugin interface changes; a library built for another version is refused.
-constexpr int kPluginAbiVersion = 1;
+constexpr int kPluginAbiVersion = 2;
 
-// What a robot's controller may read of its own robot.
+// What a robot's controller may read of its own robot: its sensors, never the ground truth
+// (the true pose is the world's, for scoring only).
 struct RobotState {
   std::string id;
-  Pose2 pose;        // true pose (ground truth; a localisation plugin may be used instead)
-  Pose2 odometry;    // odometric pose estimate, starting at the true start pose
-  double v = 0, w = 0;  // current linear and angular velocity
+  Pose2 odometry;    // odometric pose estimate, starting at the start pose
+  double v = 0, w = 0;  // current linear and angular velocity (wheel encoders)
   const LaserScan* scan = nullptr;  // latest scan, null when the robot has no ranger
+};
+
+// A task for a robot's controller, put in its inbox by whoever owns the transport (the DDS
+// bridge, the team coordinator, a test). Controllers that do not understand a kind report it
+// as rejected.
+struct RobotTask {
+  uint64_t id = 0;
+  std::string kind;              // "goto" (drive to goal), "patrol" (waypoints), "cancel", "stop"
+  Vec2 goal;                     // goto
+  std::vector<Vec2> waypoints;   // patrol
+  bool loop = false;             // patrol
+  std::string label;             // free text carried back in reports (e.g. an incident id)
+};
+
+// What a robot's controller says about itself, taken from its outbox by the transport and the
+// run log: its pose estimate (localised, not the truth), its mode and what happened to tasks.
+struct RobotReport {
+  SimTime stamp = 0;
+  std::string robot;
+  Pose2 pose;                    // the controller's estimate in the map frame
+  double position_std = 0, yaw_std = 0;  // its uncertainty (m, rad)
+  bool localized = false;        // the estimate has converged
+  std::string mode;              // e.g. idle, driving, avoiding, waiting, recovering, arrived, failed
+  uint64_t task_id = 0;          // the task being worked on (0: none)
+  std::string event;             // "" (state only), or goal_started, goal_reached, goal_failed, task_rejected
+  std::string detail;            // why, for failures
+  Vec2 goal;                     // the current goal
+  double path_length = 0;        // planned length from where the goal was given (m)
+  double cruise_speed = 0;       // the speed it drives at (m/s), for time-to-goal figures
 };
 
 // Read-only access to the world, as plugins see it.
@@ -51,6 +80,10 @@ class ModelCommand {
   virtual ~ModelCommand() = default;
   // Velocity command for a differential-drive robot (clamped to its limits).
   virtual void set_velocity(double v, double w) = 0;
+  // Takes the tasks waiting in the robot's inbox, oldest first.
+  virtual std::vector<RobotTask> take_tasks() = 0;
+  // Puts a report in the robot's outbox; the latest is also the robot's published state.
+  virtual void report(const RobotReport& r) = 0;
 };
 
 // What a plugin learns about its model when configured.
@@ -61,6 +94,14 @@ struct PluginContext {
   const OccupancyGrid* map = nullptr;
   const std::map<std::string, Vec2>* places = nullptr;
   uint64_t seed = 0;                            // this plugin's own seed, derived from the run's
+  // The robot's body, for controllers: where its laser sits, how big and fast it is.
+  Pose2 laser_mount;                            // laser pose in the robot frame
+  double robot_radius = 0;                      // disc covering the footprint (m)
+  double max_speed = 0, max_turn_rate = 0;      // m/s, rad/s
+  Pose2 start;                                  // where the robot is placed (the scenario's)
+  bool start_known = true;                      // false: the controller must localise globally
+  double laser_range_max = 0;
+  std::filesystem::path cache_dir;              // where planners may cache (roadmaps); "" = none
 };
 
 class Plugin {

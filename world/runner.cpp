@@ -1,6 +1,7 @@
 #include "world/runner.h"
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -10,6 +11,28 @@
 #include "world/topdown.h"
 
 namespace vigil {
+
+std::string robot_report_json(const RobotReport& r) {
+  auto r4 = [](double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 + 0.0 : 0.0; };
+  nlohmann::ordered_json j;
+  j["t_ns"] = r.stamp;
+  j["robot"] = r.robot;
+  j["x"] = r4(r.pose.x);
+  j["y"] = r4(r.pose.y);
+  j["yaw"] = r4(r.pose.yaw);
+  j["position_std"] = r4(r.position_std);
+  j["yaw_std"] = r4(r.yaw_std);
+  j["localized"] = r.localized;
+  j["mode"] = r.mode;
+  j["task_id"] = r.task_id;
+  if (!r.event.empty()) j["event"] = r.event;
+  if (!r.detail.empty()) j["detail"] = r.detail;
+  j["goal_x"] = r4(r.goal.x);
+  j["goal_y"] = r4(r.goal.y);
+  j["path_length"] = r4(r.path_length);
+  j["cruise_speed"] = r4(r.cruise_speed);
+  return j.dump();
+}
 
 std::string RunSummary::to_json() const {
   nlohmann::ordered_json j;
@@ -48,6 +71,13 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
   GroundTruthLog log;
   if (Status s = log.open(out.empty() ? std::filesystem::path() : out / "ground_truth.jsonl"); !s) return s.error();
 
+  std::ofstream robots_log;
+  bool any_controller = false;
+  for (const auto& r : world.robots()) any_controller = any_controller || r.controller;
+  if (!out.empty() && any_controller) {
+    robots_log.open(out / "robots.jsonl", std::ios::trunc);
+    if (!robots_log) return internal_error("cannot write " + (out / "robots.jsonl").string());
+  }
   std::unique_ptr<TopdownRenderer> topdown;
   cv::VideoWriter video;
   if (options.video && !out.empty()) {
@@ -80,7 +110,12 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
       next_record += record_every;
     }
     if (world.finished()) break;
+    if (options.before_step) options.before_step(world);
     if (Status s = world.advance(); !s) return s.error();
+    for (const RobotReport& rep : world.drain_reports()) {
+      if (robots_log) robots_log << robot_report_json(rep) << "\n";
+      if (options.on_report) options.on_report(rep);
+    }
     for (RunObserver* obs : options.observers) {
       if (Status s = obs->after_step(world); !s) return s.error();
     }

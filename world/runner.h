@@ -1,6 +1,7 @@
 // Runs a scenario headless from start to end: steps the world, records ground truth at the
-// scenario's record rate, draws the top-down video, and writes ground_truth.jsonl, topdown.avi,
-// topdown.png and summary.json into the output folder.
+// scenario's record rate, draws the top-down video, and writes ground_truth.jsonl, robots.jsonl
+// (what the robots' controllers reported), topdown.avi, topdown.png and summary.json into the
+// output folder.
 #pragma once
 
 #include <filesystem>
@@ -35,7 +36,14 @@ struct RunOptions {
   std::function<void(double, double, double)> progress;
   double progress_interval_s = 0.5;
   std::vector<RunObserver*> observers;  // not owned
+  // The transport's hooks: called before every step (to post tasks into robots' inboxes) and
+  // for every report the controllers made (also written to robots.jsonl).
+  std::function<void(World&)> before_step;
+  std::function<void(const RobotReport&)> on_report;
 };
+
+// One line of robots.jsonl: a controller's report (its estimate, mode and task events).
+std::string robot_report_json(const RobotReport& r);
 
 struct RunSummary {
   std::string scenario;

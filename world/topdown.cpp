@@ -92,9 +92,39 @@ cv::Mat TopdownRenderer::draw(const World& world) {
     cv::putText(img, ob.spec.id, p + cv::Point(s + 2, s + 8), cv::FONT_HERSHEY_SIMPLEX, 0.3 * lw, cv::Scalar(60, 60, 60), 1, cv::LINE_AA);
   }
 
-  // Robots.
+  // Robots: trail by mode, the believed pose and the goal, then the body.
+  if (robot_trails_.size() != world.robots().size()) robot_trails_.resize(world.robots().size());
+  auto mode_colour = [](const std::string& m) {
+    if (m == "avoiding") return cv::Scalar(0, 140, 255);
+    if (m == "waiting" || m == "recovering" || m == "failed") return cv::Scalar(0, 0, 220);
+    if (m == "localizing") return cv::Scalar(180, 60, 160);
+    return cv::Scalar(60, 170, 60);
+  };
+  for (size_t i = 0; i < world.robots().size(); ++i) {
+    const auto& r = world.robots()[i];
+    auto& trail = robot_trails_[i];
+    const cv::Point c = to_px(r.pose.position());
+    const cv::Scalar col = mode_colour(r.last_report ? r.last_report->mode : "");
+    if (trail.empty() || trail.back().p != c) trail.push_back({c, col});
+    if (trail.size() > 3000) trail.pop_front();
+    for (size_t k = 1; k < trail.size(); ++k) cv::line(img, trail[k - 1].p, trail[k].p, trail[k].colour, lw);
+    if (!r.last_report) continue;
+    const RobotReport& rep = *r.last_report;
+    if (rep.goal.x != 0 || rep.goal.y != 0) {
+      const cv::Point g = to_px(rep.goal);
+      const int s = std::max(3, static_cast<int>(0.25 * scale_));
+      cv::line(img, g - cv::Point(s, s), g + cv::Point(s, s), cv::Scalar(200, 0, 200), lw + 1);
+      cv::line(img, g - cv::Point(s, -s), g + cv::Point(s, -s), cv::Scalar(200, 0, 200), lw + 1);
+    }
+    const int rad = std::max(3, static_cast<int>((r.model.radius + 0.1) * scale_));
+    cv::circle(img, to_px(rep.pose.position()), rad, cv::Scalar(220, 80, 0), lw, cv::LINE_AA);
+    if (!many) {
+      cv::putText(img, rep.mode, c + cv::Point(rad + 2, rad + 10), cv::FONT_HERSHEY_SIMPLEX, 0.32 * lw, col, 1,
+                  cv::LINE_AA);
+    }
+  }
   for (const auto& r : world.robots()) {
-    const Pose2& p = r.state.pose;
+    const Pose2& p = r.pose;
     const cv::Point c = to_px(p.position());
     const int rad = std::max(2, static_cast<int>(r.model.radius * scale_));
     cv::circle(img, c, rad, cv::Scalar(40, 160, 40), cv::FILLED);

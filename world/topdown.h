@@ -1,6 +1,8 @@
 // Top-down view of a running world, drawn with OpenCV: the map, camera fields of view (clipped by
-// walls), laser scans, robots with their heading, people in their shirt colour with a trail,
-// objects by kind, and the time. Used for topdown.avi and the final topdown.png.
+// walls), laser scans, robots with their heading, their trail coloured by the mode their
+// controller reports (driving green, avoiding orange, waiting / recovering red, localising
+// purple), the pose they believe they are at (blue ring) and their goal (magenta cross), people in
+// their shirt colour with a trail, objects by kind, and the time. Used for topdown.avi and the final topdown.png.
 #pragma once
 
 #include <deque>
@@ -30,6 +32,11 @@ class TopdownRenderer {
   Vec2 origin_;
   double height_m_ = 0;
   std::vector<std::deque<cv::Point>> trails_;  // per person
+  struct TrailPoint {
+    cv::Point p;
+    cv::Scalar colour;
+  };
+  std::vector<std::deque<TrailPoint>> robot_trails_;  // per robot, coloured by reported mode
 };
 
 }  // namespace vigil

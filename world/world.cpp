@@ -19,6 +19,10 @@ constexpr double kDefaultHandSeconds = 1.0;
 
 bool is_bag(const ObjectEntity& o) { return o.spec.kind == ObjectKind::kBag; }
 
+// Body tags in Box2D's user data, so contacts name what a robot touched (0: the walls).
+enum : uintptr_t { kTagRobot = 1, kTagPerson = 2, kTagObject = 3 };
+uintptr_t body_tag(uintptr_t kind, size_t index) { return (kind << 32) | (index + 1); }
+
 Vec2 rotate(Vec2 v, double yaw) {
   const double c = std::cos(yaw), s = std::sin(yaw);
   return {c * v.x - s * v.y, s * v.x + c * v.y};
@@ -36,8 +40,8 @@ const char* to_string(EntityKind k) {
 }
 
 Pose2 RobotEntity::laser_pose() const {
-  const Vec2 off = rotate({model.laser_offset.x, model.laser_offset.y}, state.pose.yaw);
-  return {state.pose.x + off.x, state.pose.y + off.y, state.pose.yaw};
+  const Vec2 off = rotate({model.laser_offset.x, model.laser_offset.y}, pose.yaw);
+  return {pose.x + off.x, pose.y + off.y, pose.yaw};
 }
 
 World::~World() {
@@ -162,7 +166,7 @@ Status World::build(const WorldOptions& options) {
     r.odom_bias_y = od.error_y > 0 ? r.rng.uniform(-od.error_y, od.error_y) : 0;
     r.odom_bias_yaw = od.error_yaw > 0 ? r.rng.uniform(-od.error_yaw, od.error_yaw) : 0;
     r.state.id = r.spec.id;
-    r.state.pose = r.spec.start;
+    r.pose = r.spec.start;
     r.state.odometry = r.spec.start;
     r.state.scan = r.spec.ranger.enabled ? &r.scan : nullptr;
 
@@ -170,6 +174,7 @@ Status World::build(const WorldOptions& options) {
     def.type = b2_dynamicBody;
     def.position.Set(static_cast<float>(r.spec.start.x), static_cast<float>(r.spec.start.y));
     def.angle = static_cast<float>(r.spec.start.yaw);
+    def.userData.pointer = body_tag(kTagRobot, i);
     r.body = b2_->CreateBody(&def);
     b2FixtureDef fix;
     fix.density = 20.0f;
@@ -206,6 +211,13 @@ Status World::build(const WorldOptions& options) {
       ctx.map = &map_;
       ctx.places = &scenario_.places;
       ctx.seed = Rng::stream(scenario_.seed, "plugin:" + r.spec.id).next();
+      ctx.laser_mount = {r.model.laser_offset.x, r.model.laser_offset.y, 0.0};
+      ctx.robot_radius = r.model.radius + r.model.footprint_offset.norm();
+      ctx.max_speed = r.spec.max_speed;
+      ctx.max_turn_rate = r.spec.max_turn_rate;
+      ctx.start = r.spec.start;
+      ctx.laser_range_max = r.spec.ranger.enabled ? r.spec.ranger.range_max : 0.0;
+      ctx.cache_dir = options.cache_dir;
       if (Status s = r.controller->configure(*params, ctx); !s) return s;
       r.controller->reset();
     }
@@ -266,6 +278,7 @@ void World::place_object_on_floor(int oi, Vec2 where) {
   def.type = b2_staticBody;
   def.position.Set(static_cast<float>(where.x), static_cast<float>(where.y));
   def.angle = static_cast<float>(o.pose.yaw);
+  def.userData.pointer = body_tag(kTagObject, static_cast<size_t>(oi));
   o.body = b2_->CreateBody(&def);
   b2PolygonShape shape;
   shape.SetAsBox(static_cast<float>(o.spec.size_x / 2), static_cast<float>(o.spec.size_y / 2));
@@ -471,6 +484,7 @@ Status World::step_person(int i) {
     def.type = b2_dynamicBody;
     def.fixedRotation = true;
     def.position.Set(static_cast<float>(p.pose.x), static_cast<float>(p.pose.y));
+    def.userData.pointer = body_tag(kTagPerson, static_cast<size_t>(i));
     p.body = b2_->CreateBody(&def);
     b2CircleShape circle;
     circle.m_radius = static_cast<float>(p.spec.radius);
@@ -518,7 +532,7 @@ Status World::step_person(int i) {
       };
       for (size_t j = 0; j < people_.size(); ++j)
         if (static_cast<int>(j) != i && people_[j].present) repel(people_[j].pose.position(), people_[j].spec.radius);
-      for (const auto& r : robots_) repel(r.state.pose.position(), r.model.radius);
+      for (const auto& r : robots_) repel(r.pose.position(), r.model.radius);
       for (const auto& ob : objects_)
         if (ob.body) repel(ob.pose.position(), 0.5 * std::hypot(ob.spec.size_x, ob.spec.size_y));
       if (push.norm() > 0) {
@@ -551,12 +565,28 @@ void World::step_robots_control() {
     if (r.controller) {
       struct Cmd : ModelCommand {
         RobotEntity* r;
+        SimTime now;
         void set_velocity(double v, double w) override {
           r->cmd_v = std::isfinite(v) ? std::clamp(v, -r->spec.max_speed, r->spec.max_speed) : 0.0;
           r->cmd_w = std::isfinite(w) ? std::clamp(w, -r->spec.max_turn_rate, r->spec.max_turn_rate) : 0.0;
         }
+        std::vector<RobotTask> take_tasks() override {
+          std::vector<RobotTask> out(r->inbox.begin(), r->inbox.end());
+          r->inbox.clear();
+          return out;
+        }
+        void report(const RobotReport& rep) override {
+          RobotReport copy = rep;
+          copy.robot = r->spec.id;
+          copy.stamp = now;
+          // Nobody drains the outbox in some uses (benchmarks): keep the newest 4096.
+          if (r->outbox.size() >= 4096) r->outbox.erase(r->outbox.begin(), r->outbox.begin() + 2048);
+          r->outbox.push_back(copy);
+          r->last_report = copy;
+        }
       } cmd;
       cmd.r = &r;
+      cmd.now = time_;
       r.controller->update(*this, cmd);
     }
     const double yaw = r.body->GetAngle();
@@ -570,11 +600,11 @@ void World::step_robots_sense() {
   bool any_scan = false;
   for (auto& r : robots_) {
     const b2Vec2 pos = r.body->GetPosition();
-    const Pose2 prev = r.state.pose;
-    r.state.pose = {pos.x, pos.y, wrap_angle(r.body->GetAngle())};
+    const Pose2 prev = r.pose;
+    r.pose = {pos.x, pos.y, wrap_angle(r.body->GetAngle())};
     // Measured motion in the robot frame, then Stage-style odometry with per-robot bias.
-    const Vec2 delta = rotate(r.state.pose.position() - prev.position(), -prev.yaw);
-    const double dyaw = wrap_angle(r.state.pose.yaw - prev.yaw);
+    const Vec2 delta = rotate(r.pose.position() - prev.position(), -prev.yaw);
+    const double dyaw = wrap_angle(r.pose.yaw - prev.yaw);
     r.state.v = delta.x / dt;
     r.state.w = dyaw / dt;
     double mx = delta.x * (1 + r.odom_bias_x), my = delta.y * (1 + r.odom_bias_y), myaw = dyaw * (1 + r.odom_bias_yaw);
@@ -593,9 +623,9 @@ void World::step_robots_sense() {
   for (size_t i = 0; i < robots_.size(); ++i) {
     const auto& r = robots_[i];
     RangeObstacle o;
-    const Vec2 c = r.state.pose.position() + rotate(r.model.footprint_offset, r.state.pose.yaw);
+    const Vec2 c = r.pose.position() + rotate(r.model.footprint_offset, r.pose.yaw);
     o.center = c;
-    o.yaw = r.state.pose.yaw;
+    o.yaw = r.pose.yaw;
     o.owner = static_cast<int>(i);
     if (r.model.footprint == FootprintShape::kBox) {
       o.shape = RangeObstacle::Shape::kBox;
@@ -685,6 +715,73 @@ void World::monitor_events() {
   }
 }
 
+Status World::post_task(const std::string& robot, RobotTask task) {
+  for (auto& r : robots_) {
+    if (r.spec.id == robot) {
+      r.inbox.push_back(std::move(task));
+      return Status::Ok();
+    }
+  }
+  return bad_input("", 0, "robot", "no robot '" + robot + "' in this world");
+}
+
+std::vector<RobotReport> World::drain_reports() {
+  std::vector<RobotReport> out;
+  for (auto& r : robots_) {
+    out.insert(out.end(), r.outbox.begin(), r.outbox.end());
+    r.outbox.clear();
+  }
+  return out;
+}
+
+const RobotReport* World::last_report(const std::string& robot) const {
+  for (const auto& r : robots_)
+    if (r.spec.id == robot) return r.last_report ? &*r.last_report : nullptr;
+  return nullptr;
+}
+
+void World::monitor_contacts() {
+  // Touching pairs this step, per robot, by the other body's tag (0: walls).
+  std::map<std::pair<int, uintptr_t>, size_t> still;
+  for (size_t i = 0; i < robots_.size(); ++i) {
+    const RobotEntity& r = robots_[i];
+    for (b2ContactEdge* ce = r.body->GetContactList(); ce; ce = ce->next) {
+      if (!ce->contact->IsTouching()) continue;
+      const uintptr_t tag = ce->other->GetUserData().pointer;
+      const auto key = std::make_pair(static_cast<int>(i), tag);
+      if (still.count(key)) continue;
+      auto open = open_contacts_.find(key);
+      if (open != open_contacts_.end()) {
+        contacts_[open->second].end = time_;
+        still[key] = open->second;
+        continue;
+      }
+      ContactRecord c;
+      c.robot = r.spec.id;
+      const uintptr_t kind = tag >> 32;
+      const size_t index = static_cast<size_t>(tag & 0xffffffffu) - 1;
+      if (tag == 0) {
+        c.other = "wall";
+        c.other_kind = "wall";
+      } else if (kind == kTagRobot) {
+        c.other = robots_[index].spec.id;
+        c.other_kind = "robot";
+      } else if (kind == kTagPerson) {
+        c.other = people_[index].spec.id;
+        c.other_kind = "person";
+      } else {
+        c.other = objects_[index].spec.id;
+        c.other_kind = "object";
+      }
+      c.start = c.end = time_;
+      c.where = r.pose.position();
+      still[key] = contacts_.size();
+      contacts_.push_back(c);
+    }
+  }
+  open_contacts_ = std::move(still);
+}
+
 Status World::advance() {
   for (size_t i = 0; i < people_.size(); ++i) {
     if (Status s = step_person(static_cast<int>(i)); !s) return s;
@@ -695,6 +792,7 @@ Status World::advance() {
   steps_++;
   update_carried();
   step_robots_sense();
+  monitor_contacts();
   monitor_events();
   if (finished()) {
     std::stable_sort(events_.begin(), events_.end(),

@@ -6,7 +6,9 @@
 // taken, exchange, unauthorised object) from what the scripts make people do.
 #pragma once
 
+#include <deque>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -35,6 +37,7 @@ struct RobotEntity {
   RobotSpec spec;
   RobotModel model;
   b2Body* body = nullptr;
+  Pose2 pose;            // true pose (ground truth, for scoring and rendering; never for controllers)
   RobotState state;      // what the controller reads
   LaserScan scan;
   SimTime next_scan = 0;
@@ -42,7 +45,20 @@ struct RobotEntity {
   double odom_bias_x = 0, odom_bias_y = 0, odom_bias_yaw = 0;
   Rng rng;
   std::unique_ptr<Plugin> controller;
+  std::deque<RobotTask> inbox;        // tasks for the controller, oldest first
+  std::vector<RobotReport> outbox;    // reports not yet drained
+  std::optional<RobotReport> last_report;  // the latest: the robot's published state
   Pose2 laser_pose() const;  // the laser's pose in the map frame
+};
+
+// A robot touching something, as the ground truth records it: from the first step the bodies
+// touch to the last (`end` is the last step's time while still touching at the end of a run).
+struct ContactRecord {
+  std::string robot;
+  std::string other;       // entity id, or "wall"
+  std::string other_kind;  // person, object, robot, wall
+  SimTime start = 0, end = 0;
+  Vec2 where;              // robot's position when it began
 };
 
 struct PersonEntity {
@@ -103,6 +119,7 @@ struct WorldOptions {
   std::vector<std::filesystem::path> plugin_dirs;
   bool prefer_shared_plugins = false;  // load controllers from .so even when built in
   bool controllers = true;             // false: robots stand still (tests)
+  std::filesystem::path cache_dir;     // handed to controllers for their caches (roadmaps); "" = none
 };
 
 class World : public WorldView {
@@ -134,6 +151,16 @@ class World : public WorldView {
   // Events so far, in the order they arose (sorted by t at the end of the run).
   const std::vector<GroundTruthEvent>& events() const { return events_; }
   const std::vector<WallBox>& walls() const { return walls_; }
+  // Robot contacts so far (ongoing ones included), in the order they began.
+  const std::vector<ContactRecord>& contacts() const { return contacts_; }
+
+  // The transport's side of the controllers' inbox and outbox.
+  // Queues a task for a robot's controller; an unknown robot is an error naming it.
+  Status post_task(const std::string& robot, RobotTask task);
+  // Takes every report the controllers made since the last call, in robot then time order.
+  std::vector<RobotReport> drain_reports();
+  // A robot's latest report (its published state), or null.
+  const RobotReport* last_report(const std::string& robot) const;
   // The floorplan's furniture (tables), empty for maps that are not floorplans.
   const std::vector<FloorplanFurniture>& furniture() const { return furniture_; }
   size_t plugin_count() const;
@@ -146,6 +173,7 @@ class World : public WorldView {
   void step_robots_sense();
   void update_carried();
   void monitor_events();
+  void monitor_contacts();
   Status start_action(int i);
   Status plan_walk(int i, Vec2 goal, int line, const std::string& what);
   std::optional<Vec2> approach_point(int i, Vec2 target) const;
@@ -170,6 +198,8 @@ class World : public WorldView {
   std::vector<ObjectEntity> objects_;
   std::vector<ActionRecord> actions_;
   std::vector<GroundTruthEvent> events_;
+  std::vector<ContactRecord> contacts_;
+  std::map<std::pair<int, uintptr_t>, size_t> open_contacts_;  // (robot, body tag) -> contacts_ index
   struct LeftBagWatch {
     int object;
     int person;

@@ -177,7 +177,7 @@ void add_furniture(RenderScene* s, const FloorplanFurniture& f) {
 }
 
 void add_robot(RenderScene* s, const RobotEntity& r, int32_t label) {
-  const Isometry3d base = planar_pose(r.state.pose.x, r.state.pose.y, 0, r.state.pose.yaw);
+  const Isometry3d base = planar_pose(r.pose.x, r.pose.y, 0, r.pose.yaw);
   for (const RobotVisual& v : r.model.visuals) {
     const Vector3f colour(static_cast<float>(v.rgb.x), static_cast<float>(v.rgb.y), static_cast<float>(v.rgb.z));
     Isometry3d t = base * Eigen::Translation3d(v.origin.x, v.origin.y, v.origin.z);

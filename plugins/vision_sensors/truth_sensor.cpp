@@ -50,7 +50,7 @@ class TruthSensor : public VisionSensor {
     }
     const SimTime now = world.time();
     for (const auto& r : world.robots()) {
-      see(world, now, "robot:" + r.spec.id, vision::TrackClass::kRobot, {r.state.pose.x, r.state.pose.y},
+      see(world, now, "robot:" + r.spec.id, vision::TrackClass::kRobot, {r.pose.x, r.pose.y},
           r.model.height, 2 * r.model.radius, out);
     }
     for (const auto& p : world.people()) {

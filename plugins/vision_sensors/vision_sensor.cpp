@@ -162,9 +162,14 @@ Status VisionSensorHost::after_step(const World& world) {
 
 Status VisionSensorHost::emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh) {
   if (a->rules) {
-    // The robots' own pose estimates (odometry), as they would publish them: not the truth.
+    // The robots' own pose estimates, as they publish them: not the truth.
     std::vector<vision::ActivityRules::RobotPosition> robots;
-    for (const RobotEntity& r : world.robots()) robots.push_back({r.state.odometry.x, r.state.odometry.y});
+    for (const RobotEntity& r : world.robots()) {
+      // A controller's localised estimate when it reports one, else the wheel odometry.
+      const RobotReport* rep = world.last_report(r.spec.id);
+      if (rep && rep->localized) robots.push_back({rep->pose.x, rep->pose.y});
+      else robots.push_back({r.state.odometry.x, r.state.odometry.y});
+    }
     auto events = a->rules->update(stamp_ns, *fresh, robots);
     if (!events) {
       Error e = events.error();

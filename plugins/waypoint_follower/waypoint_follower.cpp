@@ -82,7 +82,7 @@ class WaypointFollower : public Plugin {
       cmd.set_velocity(0, 0);
       return;
     }
-    const Vec2 pos = me->pose.position();
+    const Vec2 pos = me->odometry.position();
     if ((waypoints_[next_] - pos).norm() < tolerance_) {
       next_++;
       path_.clear();
@@ -102,7 +102,7 @@ class WaypointFollower : public Plugin {
     }
     while (path_index_ + 1 < path_.size() && (path_[path_index_] - pos).norm() < tolerance_) path_index_++;
     const Vec2 to = path_[std::min(path_index_, path_.size() - 1)] - pos;
-    const double err = wrap_angle(std::atan2(to.y, to.x) - me->pose.yaw);
+    const double err = wrap_angle(std::atan2(to.y, to.x) - me->odometry.yaw);
     double v = std::abs(err) > 0.6 ? 0.0 : speed_ * std::cos(err);
     const double w = gain_ * err;
     if (me->scan && avoid_ > 0) {

@@ -13,6 +13,7 @@
 #include "world/map.h"
 #include "common/rng.h"
 #include "world/world.h"
+#include "planning/grid/inflated_grid.h"
 
 namespace vigil::cli {
 namespace {
@@ -44,6 +45,7 @@ void add_bench_command(CLI::App& app) {
     double laser_fov_deg = 180, laser_range = 8.0;
     std::string map, urdf, json;
     uint64_t seed = 1;
+    bool navigate = false;
   };
   auto o = std::make_shared<Opts>();
   auto* sim = bench->add_subcommand("sim", "Real-time factor with N robots with lasers (no cameras)");
@@ -55,6 +57,9 @@ void add_bench_command(CLI::App& app) {
   sim->add_option("--urdf", o->urdf, "robot URDF (default maps/robots/erratic.urdf)");
   sim->add_option("--json", o->json, "also write the results as JSON to this file");
   sim->add_option("--seed", o->seed, "seed");
+  sim->add_flag("--navigate", o->navigate,
+                "every robot runs the navigator (MCL, two-level planner, pure pursuit) back and forth between its "
+                "start and another robot's, instead of wander");
   sim->callback([o] {
     const std::filesystem::path map_path = o->map.empty() ? default_bench_map() : std::filesystem::path(o->map);
     const std::filesystem::path urdf =
@@ -103,6 +108,29 @@ void add_bench_command(CLI::App& app) {
       if (static_cast<int>(placed.size()) < n) {
         throw Exit{report(bad_input(map_path.string(), 0, "--robots", "room for only " + std::to_string(placed.size()) + " robots"))};
       }
+      if (o->navigate) {
+        // Back and forth between its start and a reachable point 4 to 12 m away (same part of
+        // the free space for the navigator's inflated radius), from a seeded sequence.
+        const planning::InflatedGrid free_space(*grid, 0.34);
+        Rng goals = Rng::stream(o->seed, "bench-sim-goals");
+        for (int k = 0; k < n; ++k) {
+          RobotSpec& r = sc.robots[k];
+          auto start = free_space.nearest_free(r.start.position(), 0.5);
+          std::vector<double> pts{r.start.x, r.start.y};
+          for (int t = 0; start && t < 2000; ++t) {
+            const double d = goals.uniform(4.0, 12.0), a = goals.uniform(-M_PI, M_PI);
+            const Vec2 g = *start + Vec2{d * std::cos(a), d * std::sin(a)};
+            if (free_space.is_free(g) && free_space.component(g) == free_space.component(*start)) {
+              pts = {g.x, g.y, r.start.x, r.start.y};
+              break;
+            }
+          }
+          r.controller = "navigator";
+          r.params["points"] = {pts, 0};
+          r.params["loop"] = {true, 0};
+          r.params["speed"] = {0.5, 0};
+        }
+      }
       WorldOptions wo;
       wo.plugins = builtin_plugin_registry();
       wo.plugin_dirs = plugin_search_path();
@@ -115,10 +143,20 @@ void add_bench_command(CLI::App& app) {
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const double simt = to_seconds((*world)->time());
       const double rtf = simt / wall;
-      std::printf("%8d %12.1f %12.2f %14.1f %12.3f %16s\n", n, simt, wall, rtf, 1000.0 * wall / (*world)->steps(), stage_figure(n));
+      int reached = 0, failed = 0;
+      for (const RobotReport& rep : (*world)->drain_reports()) {
+        reached += rep.event == "goal_reached";
+        failed += rep.event == "goal_failed";
+      }
+      std::printf("%8d %12.1f %12.2f %14.1f %12.3f %16s", n, simt, wall, rtf, 1000.0 * wall / (*world)->steps(),
+                  o->navigate ? "-" : stage_figure(n));
+      if (o->navigate) std::printf("   goals reached %d, failed %d", reached, failed);
+      std::printf("\n");
       std::fflush(stdout);
-      results.push_back({{"robots", n}, {"sim_seconds", simt}, {"wall_seconds", wall}, {"real_time_factor", rtf},
-                         {"ms_per_step", 1000.0 * wall / (*world)->steps()}, {"stage_2008", stage_figure(n)}});
+      results.push_back({{"robots", n}, {"mode", o->navigate ? "navigate" : "wander"}, {"sim_seconds", simt},
+                         {"wall_seconds", wall}, {"real_time_factor", rtf},
+                         {"ms_per_step", 1000.0 * wall / (*world)->steps()}, {"stage_2008", o->navigate ? "-" : stage_figure(n)},
+                         {"goals_reached", reached}, {"goals_failed", failed}});
     }
     if (!o->json.empty()) {
       std::ofstream f(o->json);
@@ -127,6 +165,7 @@ void add_bench_command(CLI::App& app) {
   });
   add_bench_camera_commands(bench);
   add_bench_dds_commands(bench);
+  add_bench_mcl_command(bench);
   add_bench_plan_command(bench);
 }
 

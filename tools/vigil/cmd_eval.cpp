@@ -21,6 +21,7 @@
 
 #include "plugins/builtin.h"
 #include "tools/vigil/commands.h"
+#include "world/navigation_eval.h"
 #include "vision/event.h"
 #include "vision/event_eval.h"
 #include "vision/map_track_eval.h"
@@ -170,6 +171,55 @@ void run_mot_challenge(const Opts& o) {
   std::printf("%s\n", motmetrics_json(*m).dump(2).c_str());
 }
 
+// Localisation error, contacts and goals of the run's robots: eval.json "navigation", and a table.
+void evaluate_run_navigation(const fs::path& gt_path, const fs::path& robots_path, nlohmann::ordered_json* eval) {
+  auto r = evaluate_navigation(gt_path, robots_path);
+  if (!r) throw Exit{report(r.error())};
+  nlohmann::ordered_json nav;
+  nav["robots_file"] = robots_path.filename().string();
+  nav["duration_s"] = r->duration_s;
+  nav["contacts_per_robot_hour"] = r->contacts_per_robot_hour;
+  nav["contacts_with_people_or_objects"] = r->contacts_with_people_or_objects;
+  nav["contacts_with_robots"] = r->contacts_with_robots;
+  nav["contacts_with_walls"] = r->contacts_with_walls;
+  nlohmann::ordered_json robots = nlohmann::ordered_json::array();
+  std::printf("navigation (%s against %s, %.0f s)\n", robots_path.filename().string().c_str(),
+              gt_path.filename().string().c_str(), r->duration_s);
+  std::printf("%-10s %9s %9s %9s %9s %9s %6s %6s %6s %9s %9s %9s\n", "robot", "loc_at_s", "pos_rms", "pos_max",
+              "yaw_rms", "yaw_max", "goals", "reach", "fail", "t/ideal", "t/ideal_max", "contacts");
+  for (const auto& f : r->robots) {
+    int touching = 0;
+    nlohmann::ordered_json c = nlohmann::ordered_json::object();
+    for (const auto& [kind, n] : f.contacts) {
+      c[kind] = n;
+      if (kind != "wall") touching += n;
+    }
+    robots.push_back({{"robot", f.robot},
+                      {"reports", f.reports},
+                      {"localized_reports", f.localized_reports},
+                      {"first_localized_s", f.first_localized_s},
+                      {"position_rms_m", f.position_rms},
+                      {"position_worst_m", f.position_worst},
+                      {"heading_rms_deg", f.heading_rms * 180 / std::numbers::pi},
+                      {"heading_worst_deg", f.heading_worst * 180 / std::numbers::pi},
+                      {"goals_started", f.goals_started},
+                      {"goals_reached", f.goals_reached},
+                      {"goals_failed", f.goals_failed},
+                      {"failures", f.failures},
+                      {"median_time_over_ideal", f.median_time_ratio},
+                      {"worst_time_over_ideal", f.worst_time_ratio},
+                      {"contacts", c}});
+    std::printf("%-10s %9.1f %9.3f %9.3f %9.2f %9.2f %6d %6d %6d %9.2f %9.2f %9d\n", f.robot.c_str(), f.first_localized_s,
+                f.position_rms, f.position_worst, f.heading_rms * 180 / std::numbers::pi,
+                f.heading_worst * 180 / std::numbers::pi, f.goals_started, f.goals_reached, f.goals_failed,
+                f.median_time_ratio, f.worst_time_ratio, touching);
+  }
+  nav["robots"] = robots;
+  std::printf("contacts per robot-hour (people, objects, robots): %.2f; with walls: %d\n", r->contacts_per_robot_hour,
+              r->contacts_with_walls);
+  (*eval)["navigation"] = nav;
+}
+
 // Precision, recall, latency and localisation of the run's events against the ground truth's,
 // per kind and in total: eval.json "events", and a table.
 void evaluate_run_events(const fs::path& gt_path, const fs::path& events_path, nlohmann::ordered_json* eval) {
@@ -296,9 +346,12 @@ void run_map_eval(const Opts& o) {
   const bool have_tracks = !o.tracks.empty() || fs::exists(tracks_path);
   const fs::path events_path = dir / "events.jsonl";
   const bool have_events = fs::exists(events_path);
-  if (!have_tracks && !have_events)
+  const fs::path robots_path = dir / "robots.jsonl";
+  const bool have_robots = fs::exists(robots_path);
+  if (!have_tracks && !have_events && !have_robots)
     throw Exit{report(bad_input(tracks_path.string(), 0, "",
-                                "missing, and no events.jsonl beside it: the run had no vision sensor (a camera's plugin:)"))};
+                                "missing, and no events.jsonl or robots.jsonl beside it: the run had no vision sensor "
+                                "(a camera's plugin:) and no robot controller"))};
   const fs::path eval_path = dir / "eval.json";
   auto eval = read_eval_json(eval_path);
   if (!eval) throw Exit{report(eval.error())};
@@ -362,6 +415,7 @@ void run_map_eval(const Opts& o) {
     for (const auto& [cls, m] : r->per_class) print_row(std::string(vision::to_string(cls)), m);
 }
   if (have_events) evaluate_run_events(gt_path, events_path, &*eval);
+  if (have_robots) evaluate_run_navigation(gt_path, robots_path, &*eval);
   if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
   std::printf("wrote %s\n", eval_path.string().c_str());
 }

@@ -26,6 +26,7 @@ void add_render_command(CLI::App& app);    // vigil render SCENARIO --camera ID 
 void add_eval_command(CLI::App& app);      // vigil eval RUN_DIR | --mot-gt GT --mot-test TEST
 void add_node_commands(CLI::App& app);     // vigil camera-node, vigil server, vigil events
 void add_bench_dds_commands(CLI::App* bench);  // vigil bench dds, vigil bench dds-echo
+void add_bench_mcl_command(CLI::App* bench);  // vigil bench mcl
 void add_bench_plan_command(CLI::App* bench);  // vigil bench plan
 
 }  // namespace vigil::cli
