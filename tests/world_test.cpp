@@ -328,6 +328,32 @@ TEST(World, UnknownSpaceBorderingFreeSpaceIsAWall) {
   EXPECT_LT(*std::min_element(scan.ranges.begin(), scan.ranges.end()), 4.0f);
 }
 
+TEST(World, SpecksOfUnknownInsideFreeSpaceAreFloorLargerPatchesWalls) {
+  // SLAM maps leave specks of a few unseen cells in corridors; they are not pillars. A patch of
+  // 4 x 4 cells (16 > 12) is kept, and sealed as a wall where it meets the free space.
+  const fs::path dir = fs::temp_directory_path() / ("vigil_world_specks_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  OccupancyGrid g(200, 120, 0.05, Pose2{0, 0, 0}, Cell::kUnknown);
+  for (int y = 40; y < 80; ++y)
+    for (int x = 40; x < 160; ++x) g.set(x, y, Cell::kFree);
+  g.set(60, 60, Cell::kUnknown);
+  g.set(61, 60, Cell::kUnknown);
+  g.set(61, 61, Cell::kUnknown);
+  for (int y = 50; y < 54; ++y)
+    for (int x = 100; x < 104; ++x) g.set(x, y, Cell::kUnknown);
+  ASSERT_TRUE(save_map_yaml(g, dir / "specks.yaml").ok());
+  Scenario sc = base_scenario(1);
+  sc.map = dir / "specks.yaml";
+  auto w = make_world(sc);
+  ASSERT_TRUE(w);
+  const OccupancyGrid& m = w->map();
+  EXPECT_EQ(m.at(60, 60), Cell::kFree);
+  EXPECT_EQ(m.at(61, 61), Cell::kFree);
+  EXPECT_EQ(m.at(100, 50), Cell::kOccupied);  // patch edge, sealed
+  EXPECT_EQ(m.at(39, 60), Cell::kOccupied);   // the island's rim, sealed
+  fs::remove_all(dir);
+}
+
 TEST(Runner, ObserversSeeEveryStepBetweenStartAndFinish) {
   struct Counter : RunObserver {
     int starts = 0, steps = 0, finishes = 0;

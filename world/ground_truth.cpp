@@ -111,6 +111,7 @@ void GroundTruthLog::write_timeline(const World& world) {
     emit("{\"type\":\"contact\",\"robot\":" + quoted(c.robot) + ",\"other\":" + quoted(c.other) +
          ",\"other_kind\":" + quoted(c.other_kind) + ",\"start_ns\":" + std::to_string(c.start) +
          ",\"end_ns\":" + std::to_string(c.end) + ",\"x\":" + fixed4(c.where.x) + ",\"y\":" + fixed4(c.where.y) +
+         ",\"robot_speed\":" + fixed4(c.robot_speed) + ",\"robot_pushing\":" + (c.robot_pushing ? "true" : "false") +
          "}");
   }
 }

@@ -28,6 +28,7 @@ Result<NavigationFigures> evaluate_navigation(const std::filesystem::path& gt_pa
   NavigationFigures out;
   std::map<std::string, std::vector<TruePose>> truth;
   std::map<std::string, std::map<std::string, int>> contacts;
+  std::map<std::string, int> pushing;
   int64_t last_t = 0;
   Status s = for_each_line(gt_path, [&](std::string_view line, int n) -> Status {
     auto j = nlohmann::json::parse(line, nullptr, false);
@@ -42,6 +43,7 @@ Result<NavigationFigures> evaluate_navigation(const std::filesystem::path& gt_pa
       }
     } else if (type == "contact") {
       contacts[j.value("robot", "")][j.value("other_kind", "")]++;
+      if (j.value("robot_pushing", false) && j.value("other_kind", "") != "wall") pushing[j.value("robot", "")]++;
     }
     return Status::Ok();
   });
@@ -115,6 +117,8 @@ Result<NavigationFigures> evaluate_navigation(const std::filesystem::path& gt_pa
     a.f.median_time_ratio = median(a.ratios);
     a.f.worst_time_ratio = a.ratios.empty() ? 0 : *std::max_element(a.ratios.begin(), a.ratios.end());
     a.f.contacts = contacts[id];
+    a.f.pushing_contacts = pushing[id];
+    out.pushing_contacts += pushing[id];
     for (const auto& [kind, count] : a.f.contacts) {
       if (kind == "wall") out.contacts_with_walls += count;
       else if (kind == "robot") out.contacts_with_robots += count;
@@ -125,6 +129,7 @@ Result<NavigationFigures> evaluate_navigation(const std::filesystem::path& gt_pa
   touching = out.contacts_with_people_or_objects + out.contacts_with_robots;
   const double robot_hours = out.duration_s / 3600.0 * static_cast<double>(out.robots.size());
   out.contacts_per_robot_hour = robot_hours > 0 ? touching / robot_hours : 0;
+  out.pushing_contacts_per_robot_hour = robot_hours > 0 ? out.pushing_contacts / robot_hours : 0;
   return out;
 }
 

@@ -25,8 +25,9 @@ struct RobotNavigationFigures {
   int goals_started = 0, goals_reached = 0, goals_failed = 0;
   std::vector<std::string> failures;  // detail of each failure
   double median_time_ratio = 0, worst_time_ratio = 0;  // time to goal / (path length / cruise speed)
-  // Contacts, by what was touched (person, object, robot, wall).
+  // Contacts, by what was touched (person, object, robot, wall), and those the robot drove into.
   std::map<std::string, int> contacts;
+  int pushing_contacts = 0;
 };
 
 struct NavigationFigures {
@@ -34,6 +35,8 @@ struct NavigationFigures {
   std::vector<RobotNavigationFigures> robots;
   int contacts_with_people_or_objects = 0, contacts_with_robots = 0, contacts_with_walls = 0;
   double contacts_per_robot_hour = 0;  // people, objects and robots
+  int pushing_contacts = 0;            // of those, the robot drove into (moving towards the other)
+  double pushing_contacts_per_robot_hour = 0;
 };
 
 // Reads both files; errors name the file and line.

@@ -104,6 +104,41 @@ Status World::build(const WorldOptions& options) {
     if (!grid) return grid.error();
     map_ = std::move(*grid);
   }
+  // SLAM maps sprinkle specks of unknown (a few cells the robot never saw) inside rooms and
+  // corridors: specks of at most kSpeckCells 4-connected unknown cells, away from the grid's
+  // edge, are free floor, not pillars.
+  {
+    constexpr size_t kSpeckCells = 12;
+    const int w = map_.width(), h = map_.height();
+    std::vector<uint8_t> seen(static_cast<size_t>(w) * h, 0);
+    std::vector<std::pair<int, int>> comp, stack;
+    for (int cy = 0; cy < h; ++cy) {
+      for (int cx = 0; cx < w; ++cx) {
+        if (map_.at(cx, cy) != Cell::kUnknown || seen[static_cast<size_t>(cy) * w + cx]) continue;
+        comp.clear();
+        stack.assign(1, {cx, cy});
+        seen[static_cast<size_t>(cy) * w + cx] = 1;
+        bool edge = false;
+        while (!stack.empty()) {
+          const auto [x, y] = stack.back();
+          stack.pop_back();
+          if (comp.size() <= kSpeckCells) comp.emplace_back(x, y);
+          edge = edge || x == 0 || y == 0 || x == w - 1 || y == h - 1;
+          static const int kD[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+          for (const auto& d : kD) {
+            const int nx = x + d[0], ny = y + d[1];
+            if (!map_.in_bounds(nx, ny) || map_.at(nx, ny) != Cell::kUnknown) continue;
+            uint8_t& s = seen[static_cast<size_t>(ny) * w + nx];
+            if (s) continue;
+            s = 1;
+            stack.emplace_back(nx, ny);
+          }
+        }
+        if (!edge && comp.size() <= kSpeckCells)
+          for (const auto& [x, y] : comp) map_.set(x, y, Cell::kFree);
+      }
+    }
+  }
   // Seal free space: an unknown cell next to a free one is a wall (SLAM maps leave gaps where
   // the robot saw no wall), so nothing walks or drives off the known map and lasers stop there.
   {
@@ -760,19 +795,30 @@ void World::monitor_contacts() {
       c.robot = r.spec.id;
       const uintptr_t kind = tag >> 32;
       const size_t index = static_cast<size_t>(tag & 0xffffffffu) - 1;
+      Vec2 other_at = r.pose.position();
       if (tag == 0) {
         c.other = "wall";
         c.other_kind = "wall";
+        b2WorldManifold m;
+        ce->contact->GetWorldManifold(&m);
+        other_at = {m.points[0].x, m.points[0].y};
       } else if (kind == kTagRobot) {
         c.other = robots_[index].spec.id;
         c.other_kind = "robot";
+        other_at = robots_[index].pose.position();
       } else if (kind == kTagPerson) {
         c.other = people_[index].spec.id;
         c.other_kind = "person";
+        other_at = people_[index].pose.position();
       } else {
         c.other = objects_[index].spec.id;
         c.other_kind = "object";
+        other_at = objects_[index].pose.position();
       }
+      c.robot_speed = r.state.v;
+      const Vec2 heading{std::cos(r.pose.yaw), std::sin(r.pose.yaw)};
+      const double side = (other_at - r.pose.position()).dot(heading);
+      c.robot_pushing = std::abs(r.state.v) > 0.05 && side * r.state.v > 0;
       c.start = c.end = time_;
       c.where = r.pose.position();
       still[key] = contacts_.size();

@@ -59,6 +59,10 @@ struct ContactRecord {
   std::string other_kind;  // person, object, robot, wall
   SimTime start = 0, end = 0;
   Vec2 where;              // robot's position when it began
+  double robot_speed = 0;  // the robot's forward speed when it began (m/s, signed)
+  // The robot drove into it: moving (> 0.05 m/s) towards it (the other's centre on the side the
+  // robot moves to). Otherwise the other came to a standing or retreating robot.
+  bool robot_pushing = false;
 };
 
 struct PersonEntity {

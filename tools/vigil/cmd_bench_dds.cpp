@@ -9,6 +9,7 @@
 //      (a third process), which prints receive time minus the frame's stamp. Median and p99.
 //   3. ddsperf: `ddsperf ping waitset` against `ddsperf pong waitset` on the same loopback
 //      configuration, its per-second medians and 99th percentiles.
+#include <nlohmann/json.hpp>
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -274,7 +275,7 @@ void add_bench_dds_commands(CLI::App* bench) {
   struct Opts {
     int count = 5000, events = 300, ddsperf_seconds = 6;
     bool no_ddsperf = false;
-    std::string scenario;
+    std::string scenario, json;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = bench->add_subcommand("dds", "DDS round trips and frame-to-subscriber event latency, beside ddsperf");
@@ -282,6 +283,7 @@ void add_bench_dds_commands(CLI::App* bench) {
   cmd->add_option("--events", o->events, "events to time from frame to subscriber")->capture_default_str();
   cmd->add_option("--ddsperf-seconds", o->ddsperf_seconds, "seconds of ddsperf ping-pong")->capture_default_str();
   cmd->add_flag("--no-ddsperf", o->no_ddsperf, "skip ddsperf");
+  cmd->add_option("--json", o->json, "also write the results as JSON to this file");
   cmd->add_option("--scenario", o->scenario, "scenario whose first camera and map the server uses (default: scenarios/dis_left_bag.yaml)");
   cmd->callback([o] {
     if (o->count < 10 || o->events < 10) throw Exit{report(bad_input("", 0, "--count", "--count and --events must be at least 10"))};
@@ -315,6 +317,21 @@ void add_bench_dds_commands(CLI::App* bench) {
       std::printf("ddsperf: did not run (is cyclonedds-tools installed?)\n");
     }
     fs::remove_all(tmp);
+    if (!o->json.empty()) {
+      nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+      rows.push_back({{"what", "vigil round trip"}, {"n", rt.n}, {"median_us", rt.median_us}, {"p99_us", rt.p99_us}});
+      rows.push_back({{"what", "vigil frame to subscriber"}, {"n", fs_lat.n}, {"median_us", fs_lat.median_us},
+                      {"p99_us", fs_lat.p99_us}});
+      for (const auto& [name, dp] : {std::pair<const char*, const DdsperfStats*>{"ddsperf waitset", &dp_ws},
+                                     {"ddsperf listener", &dp_ls}}) {
+        if (dp->ran)
+          rows.push_back({{"what", name}, {"n", dp->medians_us.size()}, {"median_us", quantile(dp->medians_us, 0.5)},
+                          {"p99_us", quantile(dp->p99s_us, 0.5)}});
+      }
+      std::ofstream f(o->json);
+      f << rows.dump(2) << "\n";
+      if (!f) throw Exit{report(bad_input(o->json, 0, "--json", "cannot write"))};
+    }
   });
 
   // The other end of the round trips: answers every camera event with an incident.

@@ -182,6 +182,8 @@ void evaluate_run_navigation(const fs::path& gt_path, const fs::path& robots_pat
   nav["contacts_with_people_or_objects"] = r->contacts_with_people_or_objects;
   nav["contacts_with_robots"] = r->contacts_with_robots;
   nav["contacts_with_walls"] = r->contacts_with_walls;
+  nav["pushing_contacts"] = r->pushing_contacts;
+  nav["pushing_contacts_per_robot_hour"] = r->pushing_contacts_per_robot_hour;
   nlohmann::ordered_json robots = nlohmann::ordered_json::array();
   std::printf("navigation (%s against %s, %.0f s)\n", robots_path.filename().string().c_str(),
               gt_path.filename().string().c_str(), r->duration_s);
@@ -208,15 +210,16 @@ void evaluate_run_navigation(const fs::path& gt_path, const fs::path& robots_pat
                       {"failures", f.failures},
                       {"median_time_over_ideal", f.median_time_ratio},
                       {"worst_time_over_ideal", f.worst_time_ratio},
-                      {"contacts", c}});
+                      {"contacts", c},
+                      {"pushing_contacts", f.pushing_contacts}});
     std::printf("%-10s %9.1f %9.3f %9.3f %9.2f %9.2f %6d %6d %6d %9.2f %9.2f %9d\n", f.robot.c_str(), f.first_localized_s,
                 f.position_rms, f.position_worst, f.heading_rms * 180 / std::numbers::pi,
                 f.heading_worst * 180 / std::numbers::pi, f.goals_started, f.goals_reached, f.goals_failed,
                 f.median_time_ratio, f.worst_time_ratio, touching);
   }
   nav["robots"] = robots;
-  std::printf("contacts per robot-hour (people, objects, robots): %.2f; with walls: %d\n", r->contacts_per_robot_hour,
-              r->contacts_with_walls);
+  std::printf("contacts per robot-hour (people, objects, robots): %.2f, of which the robot drove into: %.2f (%d); with walls: %d\n",
+              r->contacts_per_robot_hour, r->pushing_contacts_per_robot_hour, r->pushing_contacts, r->contacts_with_walls);
   (*eval)["navigation"] = nav;
 }
 
