@@ -16,6 +16,14 @@ namespace og = ompl::geometric;
 namespace vigil::planning {
 namespace {
 
+// The answer for a start or goal the robot cannot stand on, before any planner runs.
+bool refuse_invalid(const InflatedGrid& grid, Vec2 s, Vec2 g, PlanResult* r) {
+  if (!grid.is_free(s)) r->outcome = PlanOutcome::kInvalidStart;
+  else if (!grid.is_free(g)) r->outcome = PlanOutcome::kInvalidGoal;
+  else return false;
+  return true;
+}
+
 class TwoLevelAdapter : public PathPlanner {
  public:
   explicit TwoLevelAdapter(const TwoLevelPlanner& p) : p_(&p) {}
@@ -47,14 +55,7 @@ class OmplAdapter : public PathPlanner {
   bool deterministic() const override { return false; }
   PlanResult plan(Vec2 s, Vec2 g) override {
     PlanResult r;
-    if (!grid_->is_free(s)) {
-      r.outcome = PlanOutcome::kInvalidStart;
-      return r;
-    }
-    if (!grid_->is_free(g)) {
-      r.outcome = PlanOutcome::kInvalidGoal;
-      return r;
-    }
+    if (refuse_invalid(*grid_, s, g, &r)) return r;
     if (kind_ == OmplBaseline::kPrm) {
       planner_->clearQuery();  // keep the roadmap, as a multi-query PRM
     } else {
@@ -97,14 +98,7 @@ class ReferenceAdapter : public PathPlanner {
   bool deterministic() const override { return true; }
   PlanResult plan(Vec2 s, Vec2 g) override {
     PlanResult r;
-    if (!grid_->is_free(s)) {
-      r.outcome = PlanOutcome::kInvalidStart;
-      return r;
-    }
-    if (!grid_->is_free(g)) {
-      r.outcome = PlanOutcome::kInvalidGoal;
-      return r;
-    }
+    if (refuse_invalid(*grid_, s, g, &r)) return r;
     ReferencePath p = planner_.plan(s, g);
     r.outcome = p.found ? PlanOutcome::kExact : PlanOutcome::kNoPath;
     r.path = p.points;

@@ -1,5 +1,7 @@
 #include "planning/grid/grid_astar.h"
 
+#include "planning/grid/grid_traversal.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -153,33 +155,13 @@ std::vector<Vec2> GridPathPlanner::plan(Vec2 start, Vec2 goal) const {
   // True when every cell the segment p->q (cell units) touches passes `ok`: an exact grid
   // traversal; where it passes exactly through a cell corner both side cells are checked.
   auto line_of_sight = [&](Vec2 p, Vec2 q, auto ok) {
-    int cx = std::clamp(static_cast<int>(std::floor(p.x)), 0, w - 1);
-    int cy = std::clamp(static_cast<int>(std::floor(p.y)), 0, h - 1);
+    const int cx = std::clamp(static_cast<int>(std::floor(p.x)), 0, w - 1);
+    const int cy = std::clamp(static_cast<int>(std::floor(p.y)), 0, h - 1);
     const int ex = std::clamp(static_cast<int>(std::floor(q.x)), 0, w - 1);
     const int ey = std::clamp(static_cast<int>(std::floor(q.y)), 0, h - 1);
-    const double dx = q.x - p.x, dy = q.y - p.y;
-    const int step_x = dx > 0 ? 1 : (dx < 0 ? -1 : 0), step_y = dy > 0 ? 1 : (dy < 0 ? -1 : 0);
-    const double inf = std::numeric_limits<double>::infinity();
-    auto at = [&](int x, int y) {
+    return cells_along_segment(p, q, cx, cy, ex, ey, 4 * (w + h), [&](int x, int y) {
       return x >= 0 && y >= 0 && x < w && y < h && ok(static_cast<int64_t>(y) * w + x);
-    };
-    if (!at(cx, cy)) return false;
-    for (int guard = 0; guard < 4 * (w + h) && (cx != ex || cy != ey); ++guard) {
-      const double tx = step_x == 0 ? inf : ((step_x > 0 ? cx + 1 : cx) - p.x) / dx;
-      const double ty = step_y == 0 ? inf : ((step_y > 0 ? cy + 1 : cy) - p.y) / dy;
-      if (std::min(tx, ty) > 1.0) break;
-      if (std::abs(tx - ty) < 1e-9) {
-        if (!at(cx + step_x, cy) || !at(cx, cy + step_y)) return false;
-        cx += step_x;
-        cy += step_y;
-      } else if (tx < ty) {
-        cx += step_x;
-      } else {
-        cy += step_y;
-      }
-      if (!at(cx, cy)) return false;
-    }
-    return true;
+    });
   };
 
   // Shortens one stretch: the points are `first`, the centres of the stretch's first cell, of

@@ -1,5 +1,7 @@
 #include "planning/grid/inflated_grid.h"
 
+#include "planning/grid/grid_traversal.h"
+
 #include <algorithm>
 #include <cmath>
 #include <deque>
@@ -64,29 +66,9 @@ bool InflatedGrid::segment_free(Vec2 a, Vec2 b) const {
         q.y < height())) {
     return false;  // also NaN
   }
-  int cx = static_cast<int>(p.x), cy = static_cast<int>(p.y);
-  const int ex = static_cast<int>(q.x), ey = static_cast<int>(q.y);
-  if (!cell_free(cx, cy)) return false;
-  const double dx = q.x - p.x, dy = q.y - p.y;
-  const int step_x = dx > 0 ? 1 : (dx < 0 ? -1 : 0), step_y = dy > 0 ? 1 : (dy < 0 ? -1 : 0);
-  const double inf = std::numeric_limits<double>::infinity();
-  const double inv_dx = step_x ? 1.0 / dx : inf, inv_dy = step_y ? 1.0 / dy : inf;
-  for (int guard = 0; guard < 4 * (width() + height()) && (cx != ex || cy != ey); ++guard) {
-    const double tx = step_x == 0 ? inf : ((step_x > 0 ? cx + 1 : cx) - p.x) * inv_dx;
-    const double ty = step_y == 0 ? inf : ((step_y > 0 ? cy + 1 : cy) - p.y) * inv_dy;
-    if (std::min(tx, ty) > 1.0) break;
-    if (std::abs(tx - ty) < 1e-9) {
-      if (!cell_free(cx + step_x, cy) || !cell_free(cx, cy + step_y)) return false;
-      cx += step_x;
-      cy += step_y;
-    } else if (tx < ty) {
-      cx += step_x;
-    } else {
-      cy += step_y;
-    }
-    if (!cell_free(cx, cy)) return false;
-  }
-  return true;
+  return cells_along_segment(p, q, static_cast<int>(p.x), static_cast<int>(p.y), static_cast<int>(q.x),
+                             static_cast<int>(q.y), 4 * (width() + height()),
+                             [this](int x, int y) { return cell_free(x, y); });
 }
 
 std::optional<Vec2> InflatedGrid::nearest_free(Vec2 p, double max_distance) const {
