@@ -18,6 +18,7 @@
 #include "planning/grid/clearance_field.h"
 #include "planning/localization/mcl.h"
 #include "tools/vigil/commands.h"
+#include "world/kinematic_robot.h"
 #include "world/floorplan.h"
 #include "world/map.h"
 #include "world/ranger.h"
@@ -43,97 +44,21 @@ Pose2 compose(Pose2 a, Pose2 b) {
 // wandering by its true laser; Stage-like odometry with a per-robot bias on the x, y and yaw
 // increments (the scenarios draw it uniform in [-e, e], e = 0.01, 0.01, 0.1); a 271-beam
 // 270-degree 20 m laser with 1 cm noise each 0.1 s.
-class SimRobot {
+class SimRobot : public KinematicRobot {
  public:
   SimRobot(const OccupancyGrid& map, Pose2 start, std::vector<Vec2> loop, int samples, Vec3 bias = {0.01, -0.01, 0.1},
            uint64_t noise_seed = 7)
-      : grid_(&map), walls_(map), bodies_({map.origin().x, map.origin().y}, {map.origin().x + map.size_x(), map.origin().y + map.size_y()}),
-        truth_(start), loop_(std::move(loop)), bias_(bias), noise_(Rng::stream(noise_seed, "laser")) {
-    bodies_.rebuild({});
-    spec_.enabled = true;
-    spec_.range_max = 20;
-    spec_.fov = 270 * M_PI / 180;
-    spec_.samples = samples;
-    spec_.noise_std = 0.01;
-    scan();
-  }
-  void step() {
-    double v = 0, w = 0;
-    if (!loop_.empty()) {
-      const Vec2 d = loop_[next_] - truth_.position();
-      if (d.norm() < 0.15) {
-        next_ = (next_ + 1) % loop_.size();
-      } else {
-        const double err = wrap_angle(std::atan2(d.y, d.x) - truth_.yaw);
-        w = std::clamp(2.0 * err, -kTurn, kTurn);
-        v = std::abs(err) < 0.3 ? std::min(kSpeed, d.norm() / kDt) : 0.0;
-      }
-    } else {
-      double best = -1, best_a = 0;
-      for (int k = -4; k <= 4; ++k) {
-        const double a = k * 15 * M_PI / 180;
-        const double r = std::min(6.0, grid_->raycast(truth_.position(), truth_.yaw + a, 6.0, true)) - 0.05 * std::abs(k);
-        if (r > best) best = r, best_a = a;
-      }
-      const double front = std::min({grid_->raycast(truth_.position(), truth_.yaw, 2.0, true),
-                                     grid_->raycast(truth_.position(), truth_.yaw + 0.4, 2.0, true),
-                                     grid_->raycast(truth_.position(), truth_.yaw - 0.4, 2.0, true)});
-      if (front < 0.7) {
-        w = turn_dir_ * kTurn;
-      } else {
-        turn_dir_ = best_a >= 0 ? 1 : -1;
-        w = std::clamp(1.5 * best_a, -kTurn, kTurn);
-        v = kSpeed;
-      }
-    }
-    const Pose2 prev = truth_;
-    const double a = truth_.yaw + 0.5 * w * kDt;
-    truth_ = {truth_.x + v * kDt * std::cos(a), truth_.y + v * kDt * std::sin(a), wrap_angle(truth_.yaw + w * kDt)};
-    const double c = std::cos(prev.yaw), s = std::sin(prev.yaw);
-    const double dx = c * (truth_.x - prev.x) + s * (truth_.y - prev.y);
-    const double dy = -s * (truth_.x - prev.x) + c * (truth_.y - prev.y);
-    const double dyaw = wrap_angle(truth_.yaw - prev.yaw);
-    const double mx = dx * (1 + bias_.x), my = dy * (1 + bias_.y), myaw = dyaw * (1 + bias_.z);
-    const double oc = std::cos(odom_.yaw), os = std::sin(odom_.yaw);
-    odom_ = {odom_.x + oc * mx - os * my, odom_.y + os * mx + oc * my, wrap_angle(odom_.yaw + myaw)};
-    t_ += kDt;
-    scan();
-  }
-  void teleport(Pose2 p, size_t next = 0) {
-    truth_ = p;
-    next_ = next;
-  }
-  const Pose2& truth() const { return truth_; }
-  const Pose2& odometry() const { return odom_; }
-  const LaserScan& last_scan() const { return scan_; }
-  double time() const { return t_; }
+      : KinematicRobot(map, start, loop, loop.empty() ? RouteEnd::kWander : RouteEnd::kLoop, options(samples, bias, noise_seed)) {}
+  const LaserScan& last_scan() const { return scan(); }
 
  private:
-  // The simulated laser, with returns from the grid's edge (a beam that crossed unknown space
-  // to the border of the map) dropped as no return: a real laser sees no map border.
-  void scan() {
-    const Pose2 lp = compose(truth_, kLaser);
-    simulate_scan(walls_, bodies_, lp, spec_, -1, &noise_, from_seconds(t_), &scan_);
-    const double res = grid_->resolution(), x0 = grid_->origin().x + res, y0 = grid_->origin().y + res;
-    const double x1 = grid_->origin().x + grid_->size_x() - res, y1 = grid_->origin().y + grid_->size_y() - res;
-    for (size_t i = 0; i < scan_.ranges.size(); ++i) {
-      const double r = scan_.ranges[i], a = lp.yaw + scan_.angle_min + i * scan_.angle_increment;
-      const double x = lp.x + r * std::cos(a), y = lp.y + r * std::sin(a);
-      if (x < x0 || y < y0 || x > x1 || y > y1) scan_.ranges[i] = static_cast<float>(scan_.range_max);
-    }
+  static Options options(int samples, Vec3 bias, uint64_t noise_seed) {
+    Options o;
+    o.samples = samples;
+    o.bias = bias;
+    o.noise_seed = noise_seed;
+    return o;
   }
-  const OccupancyGrid* grid_;  // the wander steers clear of occupied and unknown cells
-  WallRaycaster walls_;
-  ObstacleIndex bodies_;
-  RangerSpec spec_;
-  Pose2 truth_, odom_;
-  std::vector<Vec2> loop_;
-  Vec3 bias_;
-  size_t next_ = 0;
-  int turn_dir_ = 1;
-  Rng noise_;
-  LaserScan scan_;
-  double t_ = 0;
 };
 
 struct BenchMap {
