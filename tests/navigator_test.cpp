@@ -178,6 +178,12 @@ TEST(Navigator, BadParametersNameTheKey) {
   r = run_scenario(wall, ro);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().str().find("not in free space"), std::string::npos) << r.error().str();
+  // A blind robot cannot localise or see people: refused, not driven.
+  Scenario blind = *sc;
+  blind.robots[0].ranger.enabled = false;
+  r = run_scenario(blind, ro);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().str().find("ranger"), std::string::npos) << r.error().str();
 }
 
 TEST(World, RecordsContactsOfARobotThatPushes) {

@@ -815,10 +815,11 @@ void World::monitor_contacts() {
         c.other_kind = "object";
         other_at = objects_[index].pose.position();
       }
-      c.robot_speed = r.state.v;
+      // The speed the controller commanded (a body pushed by a person moves too, but does not push).
+      c.robot_speed = r.cmd_v;
       const Vec2 heading{std::cos(r.pose.yaw), std::sin(r.pose.yaw)};
       const double side = (other_at - r.pose.position()).dot(heading);
-      c.robot_pushing = std::abs(r.state.v) > 0.05 && side * r.state.v > 0;
+      c.robot_pushing = std::abs(r.cmd_v) > 0.05 && side * r.cmd_v > 0;
       c.start = c.end = time_;
       c.where = r.pose.position();
       still[key] = contacts_.size();

@@ -59,9 +59,9 @@ struct ContactRecord {
   std::string other_kind;  // person, object, robot, wall
   SimTime start = 0, end = 0;
   Vec2 where;              // robot's position when it began
-  double robot_speed = 0;  // the robot's forward speed when it began (m/s, signed)
-  // The robot drove into it: moving (> 0.05 m/s) towards it (the other's centre on the side the
-  // robot moves to). Otherwise the other came to a standing or retreating robot.
+  double robot_speed = 0;  // the forward speed its controller commanded when it began (m/s, signed)
+  // The robot drove into it: commanded to move (> 0.05 m/s) towards it (the other's centre on
+  // the side the robot moves to). Otherwise the other came to a standing or retreating robot.
   bool robot_pushing = false;
 };
 

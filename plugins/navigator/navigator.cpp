@@ -103,6 +103,7 @@ class Navigator : public Plugin {
         {"turn_gain", ParamType::kNumber, 2.0, 0.1, 20.0, "angular velocity per radian of heading error"},
         {"safety_distance", ParamType::kNumber, 0.45, 0.05, 5.0, "stop for returns closer than this ahead of the body (m)"},
         {"slow_distance", ParamType::kNumber, 1.2, 0.1, 10.0, "slow down for returns closer than this ahead (m)"},
+        {"personal_space", ParamType::kNumber, 0.0, 0.0, 3.0, "stop for unmapped returns this close to the body in front of the axle (m; 0 = off)"},
         {"inflation_padding", ParamType::kNumber, 0.05, 0.0, 1.0, "added to the robot's radius for planning (m)"},
         {"obstacle_margin", ParamType::kNumber, 0.15, 0.0, 2.0, "kept from laser-seen obstacles when replanning (m)"},
         {"replan_period", ParamType::kNumber, 2.0, 0.1, 60.0, "replan against what the laser sees this often (s)"},
@@ -140,6 +141,7 @@ class Navigator : public Plugin {
     gain_ = p.number("turn_gain");
     safety_ = p.number("safety_distance");
     slow_ = std::max(p.number("slow_distance"), safety_ + 0.05);
+    personal_space_ = p.number("personal_space");
     replan_period_ = from_seconds(p.number("replan_period"));
     blocked_wait_ = from_seconds(p.number("blocked_wait"));
     stuck_time_ = from_seconds(p.number("stuck_time"));
@@ -150,6 +152,11 @@ class Navigator : public Plugin {
       return bad_input(ctx.scenario_file, ctx.line, "params.localization", "must be 'mcl' or 'odometry', not '" + loc + "'");
     }
     use_mcl_ = loc == "mcl";
+    if (ctx.laser_range_max <= 0) {
+      // Without a laser it can neither localise on the map nor see people in its way.
+      return bad_input(ctx.scenario_file, ctx.line, "ranger",
+                       "the navigator needs the robot's laser: give the robot a ranger");
+    }
     const std::string init = p.string("initial_pose");
     if (init != "known" && init != "unknown") {
       return bad_input(ctx.scenario_file, ctx.line, "params.initial_pose", "must be 'known' or 'unknown', not '" + init + "'");
@@ -479,7 +486,19 @@ class Navigator : public Plugin {
     *w = std::clamp(gain_ * err, -ctx_.max_turn_rate, ctx_.max_turn_rate);
     // Safety: slow for, and stop short of, anything in the swept corridor ahead.
     const double ahead = clear_ahead(me);
-    const double factor = std::clamp((ahead - safety_) / (slow_ - safety_), 0.0, 1.0);
+    double factor = std::clamp((ahead - safety_) / (slow_ - safety_), 0.0, 1.0);
+    // Personal space: something the map does not hold (a person stepping in from the side)
+    // within `personal_space` of the body, anywhere in front of its axle, stops the robot too.
+    if (personal_space_ > 0) {
+      for (const Vec2& q : obs.points()) {
+        const Vec2 d = q - pos;
+        const double fx = std::cos(pose_.yaw) * d.x + std::sin(pose_.yaw) * d.y;
+        if (fx > 0 && d.norm() < ctx_.robot_radius + personal_space_) {
+          factor = 0;
+          break;
+        }
+      }
+    }
     *v *= factor;
     if (factor == 0.0) {
       mode_ = "waiting";
@@ -564,6 +583,7 @@ class Navigator : public Plugin {
   std::vector<Vec2> patrol_;
   bool loop_ = true;
   double speed_ = 0.4, tolerance_ = 0.3, lookahead_ = 0.6, gain_ = 2.0, safety_ = 0.45, slow_ = 1.2;
+  double personal_space_ = 0.0;
   SimTime replan_period_ = 0, blocked_wait_ = 0, stuck_time_ = 0, report_every_ = 0;
   int max_recoveries_ = 3;
   bool use_mcl_ = true, global_start_ = false;
