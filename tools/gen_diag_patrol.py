@@ -5,19 +5,14 @@ of patrolling_sim's graph vertices, with people walking between vertices. Run fr
     python3 tools/gen_diag_patrol.py > scenarios/diag_floor1_patrol.yaml"""
 import math
 import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from patrol_graph import read_graph  # noqa: E402
 
 folder = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "maps", "DIAG_floor1")
 
 
-def read_graph(path):
-    nums = [l.strip() for l in open(path) if l.strip()]
-    n, res = int(nums[0]), float(nums[3])
-    i, verts = 6, []
-    for _ in range(n):
-        vid, x, y, k = int(nums[i]), float(nums[i + 1]), float(nums[i + 2]), int(nums[i + 3])
-        verts.append((vid, x * res, y * res))
-        i += 4 + 3 * k
-    return verts
 
 
 verts = read_graph(os.path.join(folder, "DIAG_floor1.graph"))

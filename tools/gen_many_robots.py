@@ -12,6 +12,9 @@ import os
 import random
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from patrol_graph import read_graph  # noqa: E402
+
 here = os.path.dirname(os.path.abspath(__file__))
 folder = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "..", "shared", "data", "maps", "DIAG_floor1")
 
@@ -36,15 +39,6 @@ def read_pgm(path):
     return w, h, data[pos + 1:pos + 1 + w * h]
 
 
-def read_graph(path):
-    nums = [line.strip() for line in open(path) if line.strip()]
-    n, res = int(nums[0]), float(nums[3])
-    i, verts = 6, []
-    for _ in range(n):
-        vid, x, y, k = int(nums[i]), int(nums[i + 1]), int(nums[i + 2]), int(nums[i + 3])
-        verts.append((vid, x * res, y * res))
-        i += 4 + 3 * k
-    return verts
 
 
 w, h, img = read_pgm(os.path.join(folder, "DIAG_floor1.pgm"))
