@@ -234,7 +234,6 @@ class Navigator : public Plugin {
     consecutive_failures_ = 0;
     retry_after_ = 0;
     last_scan_stamp_ = -1;
-    events_.clear();
   }
 
   void update(const WorldView& world, ModelCommand& cmd) override {
@@ -335,7 +334,6 @@ class Navigator : public Plugin {
     label_ = label;
     path_.clear();
     recoveries_ = 0;
-    goal_given_ = now_;
     planned_length_ = -1;
     progress_best_ = 1e18;
     progress_time_ = now_;
@@ -604,7 +602,7 @@ class Navigator : public Plugin {
   std::vector<Vec2> path_;
   size_t path_index_ = 0;
   bool avoiding_ = false, goal_announced_ = false, statically_checked_ = false;
-  SimTime last_plan_ = 0, goal_given_ = 0, progress_time_ = 0, blocked_since_ = -1;
+  SimTime last_plan_ = 0, progress_time_ = 0, blocked_since_ = -1;
   SimTime recovery_until_ = -1, recovery_backoff_end_ = -1;
   double progress_best_ = 1e18, planned_length_ = -1;
   int recoveries_ = 0, consecutive_failures_ = 0;
@@ -613,7 +611,6 @@ class Navigator : public Plugin {
   std::string last_detail_;
   std::string mode_ = "idle";
   SimTime next_report_ = 0;
-  std::vector<std::string> events_;
 };
 
 }  // namespace
