@@ -1,0 +1,73 @@
+// Patrolling strategies behind one interface (after the patrolling_sim framework of Portugal and
+// Iocchi). Every robot runs its own copy; what they share is what they know: the times vertices
+// were last visited and where each robot is heading, passed between robots by the transport.
+//   cyclic     one shortest closed walk through every vertex; the team spread evenly along it,
+//              all going the same way round
+//   partition  the walk cut into as many equal stretches as there are robots; each robot patrols
+//              the closed walk of its own stretch's vertices
+//   greedy     (DTA-Greedy) go next to the vertex of highest utility: its estimated idleness
+//              less theta times the planned travel time to it, leaving out the vertices other
+//              robots are heading for
+// When the team changes (a robot leaves to respond to an incident, or comes back) every member
+// recomputes its share from the same member list, so the shares stay consistent.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "planning/patrol/patrol_graph.h"
+#include "planning/patrol/tour.h"
+
+namespace vigil::planning::patrol {
+
+// What a team patrols, shared by all its members.
+struct PatrolSetup {
+  PatrolGraph graph;
+  GraphDistances distances;  // along the graph's edges
+  CostMatrix travel;         // path lengths between vertices (m): the planner's on the map
+  ClosedWalk tour;           // the shortest closed walk through every vertex
+  double speed = 1.0;        // the robots' cruise speed (m/s), to turn lengths into times
+
+  // Builds the tour; `travel` empty means the graph's own costs.
+  static std::shared_ptr<const PatrolSetup> make(PatrolGraph g, CostMatrix travel, double speed);
+};
+
+// What one robot knows of the team's patrol.
+struct PatrolKnowledge {
+  double now = 0;                       // s
+  std::vector<double> last_visit;       // per vertex, the latest visit known (s; the start counts as one)
+  struct Intention {
+    int vertex = -1;
+    double eta = 0;                     // the time it expects to arrive (s)
+  };
+  std::map<std::string, Intention> others;  // other members' current targets
+  // Merges a visit heard from anyone.
+  void visited(int vertex, double t) {
+    if (vertex >= 0 && static_cast<size_t>(vertex) < last_visit.size() && t > last_visit[vertex]) last_visit[vertex] = t;
+  }
+};
+
+class PatrolStrategy {
+ public:
+  virtual ~PatrolStrategy() = default;
+  virtual const char* name() const = 0;
+  // The patrolling members (sorted names) and where each is; `me` indexes both.
+  virtual void set_team(const std::vector<std::string>& members, const std::vector<Vec2>& where, int me) = 0;
+  // The vertex to head for next, from `p`, having just reached `at` (-1: none yet, at the start
+  // or after a change of team).
+  virtual int next(int at, Vec2 p, const PatrolKnowledge& k) = 0;
+};
+
+struct StrategyParams {
+  double theta = 1.0;  // greedy: seconds of idleness one second of travel is worth
+};
+
+const std::vector<std::string>& strategy_names();
+// Errors name the key "strategy" and list the names.
+Result<std::unique_ptr<PatrolStrategy>> make_strategy(const std::string& name, std::shared_ptr<const PatrolSetup> setup,
+                                                       const StrategyParams& params = {});
+
+}  // namespace vigil::planning::patrol
