@@ -5,6 +5,7 @@
 VIGIL_PLUGIN_FACTORY_DECL(waypoint_follower)
 VIGIL_PLUGIN_FACTORY_DECL(wander)
 VIGIL_PLUGIN_FACTORY_DECL(navigator)
+VIGIL_PLUGIN_FACTORY_DECL(team)
 
 namespace vigil {
 
@@ -12,6 +13,7 @@ void register_builtin_plugins(PluginRegistry& registry) {
   registry.add_builtin("waypoint_follower", plugins::create_waypoint_follower);
   registry.add_builtin("wander", plugins::create_wander);
   registry.add_builtin("navigator", plugins::create_navigator);
+  registry.add_builtin("team", plugins::create_team);
 }
 
 std::shared_ptr<PluginRegistry> builtin_plugin_registry() {

@@ -23,7 +23,7 @@
 namespace vigil {
 
 // Bumped whenever the Plugin interface changes; a library built for another version is refused.
-constexpr int kPluginAbiVersion = 2;
+constexpr int kPluginAbiVersion = 3;
 
 // What a robot's controller may read of its own robot: its sensors, never the ground truth
 // (the true pose is the world's, for scoring only).
@@ -55,12 +55,30 @@ struct RobotReport {
   double position_std = 0, yaw_std = 0;  // its uncertainty (m, rad)
   bool localized = false;        // the estimate has converged
   std::string mode;              // e.g. idle, driving, avoiding, waiting, recovering, arrived, failed
+  std::string role;              // a team robot's role: patrol, respond, guard ("" for others)
   uint64_t task_id = 0;          // the task being worked on (0: none)
   std::string event;             // "" (state only), or goal_started, goal_reached, goal_failed, task_rejected
   std::string detail;            // why, for failures
   Vec2 goal;                     // the current goal
   double path_length = 0;        // planned length from where the goal was given (m)
   double cruise_speed = 0;       // the speed it drives at (m/s), for time-to-goal figures
+};
+
+// A message between robots' controllers (patrol visits, task tokens, team state). The transport
+// carries it: inside `vigil run` the run's team bus (world/team_bus.h), between processes DDS.
+// Controllers never see which. Fields are generic so one type serves every protocol; each kind
+// documents what it uses (plugins/team/).
+struct TeamMessage {
+  std::string kind;              // e.g. "visit", "hello", "token", "bid", "award"
+  std::string from;              // the sender (filled in by the world)
+  std::string to;                // one robot, or "" for every other robot
+  SimTime sent = 0;              // when it was sent (filled in by the world)
+  uint64_t task = 0;             // a task or incident id
+  int64_t seq = 0;               // a sequence or round number
+  int vertex = -1, next_vertex = -1;
+  double value = 0, value2 = 0;  // e.g. a time, a cost, a utility
+  Vec2 position;
+  std::string text;
 };
 
 // Read-only access to the world, as plugins see it.
@@ -84,6 +102,10 @@ class ModelCommand {
   virtual std::vector<RobotTask> take_tasks() = 0;
   // Puts a report in the robot's outbox; the latest is also the robot's published state.
   virtual void report(const RobotReport& r) = 0;
+  // Sends a message to other robots' controllers (delivered from the next step on).
+  virtual void send(const TeamMessage& m) = 0;
+  // Takes the messages delivered to this robot, oldest first.
+  virtual std::vector<TeamMessage> take_messages() = 0;
 };
 
 // What a plugin learns about its model when configured.

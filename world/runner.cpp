@@ -24,6 +24,7 @@ std::string robot_report_json(const RobotReport& r) {
   j["yaw_std"] = r4(r.yaw_std);
   j["localized"] = r.localized;
   j["mode"] = r.mode;
+  if (!r.role.empty()) j["role"] = r.role;
   j["task_id"] = r.task_id;
   if (!r.event.empty()) j["event"] = r.event;
   if (!r.detail.empty()) j["detail"] = r.detail;
@@ -95,6 +96,7 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
   }
   const SimTime record_every = std::max<SimTime>(world.step_length(), from_seconds(1.0 / scenario.record_rate_hz));
   SimTime next_record = 0;
+  LocalTeamBus bus(options.team_bus);
   const auto t0 = std::chrono::steady_clock::now();
   auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   double next_progress = options.progress_interval_s;
@@ -112,6 +114,11 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     if (world.finished()) break;
     if (options.before_step) options.before_step(world);
     if (Status s = world.advance(); !s) return s.error();
+    if (options.exchange_messages) {
+      if (Status s = options.exchange_messages(world); !s) return s.error();
+    } else {
+      bus.exchange(world);
+    }
     for (const RobotReport& rep : world.drain_reports()) {
       if (robots_log) robots_log << robot_report_json(rep) << "\n";
       if (options.on_report) options.on_report(rep);

@@ -12,6 +12,7 @@
 
 #include "world/scenario.h"
 #include "world/status.h"
+#include "world/team_bus.h"
 #include "world/world.h"
 
 namespace vigil {
@@ -40,6 +41,10 @@ struct RunOptions {
   // for every report the controllers made (also written to robots.jsonl).
   std::function<void(World&)> before_step;
   std::function<void(const RobotReport&)> on_report;
+  // Carries the controllers' team messages after every step. Empty: a LocalTeamBus with
+  // `team_bus` options (world/team_bus.h).
+  std::function<Status(World&)> exchange_messages;
+  TeamBusOptions team_bus;
 };
 
 // One line of robots.jsonl: a controller's report (its estimate, mode and task events).

@@ -619,6 +619,18 @@ void World::step_robots_control() {
           r->outbox.push_back(copy);
           r->last_report = copy;
         }
+        void send(const TeamMessage& m) override {
+          TeamMessage copy = m;
+          copy.from = r->spec.id;
+          copy.sent = now;
+          if (r->sent.size() >= 65536) r->sent.erase(r->sent.begin(), r->sent.begin() + 32768);
+          r->sent.push_back(std::move(copy));
+        }
+        std::vector<TeamMessage> take_messages() override {
+          std::vector<TeamMessage> out(r->received.begin(), r->received.end());
+          r->received.clear();
+          return out;
+        }
       } cmd;
       cmd.r = &r;
       cmd.now = time_;
@@ -767,6 +779,26 @@ std::vector<RobotReport> World::drain_reports() {
     r.outbox.clear();
   }
   return out;
+}
+
+std::vector<TeamMessage> World::drain_sent() {
+  std::vector<TeamMessage> out;
+  for (auto& r : robots_) {
+    out.insert(out.end(), std::make_move_iterator(r.sent.begin()), std::make_move_iterator(r.sent.end()));
+    r.sent.clear();
+  }
+  return out;
+}
+
+Status World::deliver(const std::string& robot, TeamMessage m) {
+  for (auto& r : robots_) {
+    if (r.spec.id == robot) {
+      if (r.received.size() >= 65536) r.received.pop_front();
+      r.received.push_back(std::move(m));
+      return Status::Ok();
+    }
+  }
+  return bad_input("", 0, "robot", "no robot '" + robot + "' in this world");
 }
 
 const RobotReport* World::last_report(const std::string& robot) const {

@@ -48,6 +48,8 @@ struct RobotEntity {
   std::deque<RobotTask> inbox;        // tasks for the controller, oldest first
   std::vector<RobotReport> outbox;    // reports not yet drained
   std::optional<RobotReport> last_report;  // the latest: the robot's published state
+  std::vector<TeamMessage> sent;      // team messages not yet taken by the transport
+  std::deque<TeamMessage> received;   // delivered, not yet taken by the controller
   Pose2 laser_pose() const;  // the laser's pose in the map frame
 };
 
@@ -163,6 +165,10 @@ class World : public WorldView {
   Status post_task(const std::string& robot, RobotTask task);
   // Takes every report the controllers made since the last call, in robot then time order.
   std::vector<RobotReport> drain_reports();
+  // Takes every team message the controllers sent since the last call, in robot then send order.
+  std::vector<TeamMessage> drain_sent();
+  // Puts a message in a robot's message inbox; an unknown robot is an error naming it.
+  Status deliver(const std::string& robot, TeamMessage m);
   // A robot's latest report (its published state), or null.
   const RobotReport* last_report(const std::string& robot) const;
   // The floorplan's furniture (tables), empty for maps that are not floorplans.

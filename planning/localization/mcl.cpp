@@ -78,6 +78,7 @@ Status validate(const MclParams& p) {
     return bad_input("", 0, "recovery_alpha_fast", "must exceed recovery_alpha_slow (or both be 0 to disable recovery)");
   if (auto s = check(p.recovery_max_share, 0, 1, "recovery_max_share"); !s) return s;
   if (auto s = check(p.recovery_drop, 0, 10, "recovery_drop"); !s) return s;
+  if (auto s = check(p.occlusion_range, 0, 50, "occlusion_range"); !s) return s;
   if (auto s = check_count(p.recovery_persistence, 1, 1000, "recovery_persistence"); !s) return s;
   if (auto s = check_count(p.injection_candidates, 1, 10000, "injection_candidates"); !s) return s;
   if (auto s = check(p.injection_margin, 0, 10, "injection_margin"); !s) return s;
@@ -417,6 +418,52 @@ void MonteCarloLocalization::score(const Pose2* poses, size_t n, size_t stride, 
   }
 }
 
+// The per-beam mean log-likelihood of the scan at `q` over the beams that are not short
+// (a short beam ends within occlusion_range in a free cell, reached over free cells from the
+// laser: a body close in front); `kept` counts the rest.
+
+double MonteCarloLocalization::fit_without_occlusions(const Pose2& q, int* kept) const {
+  const MclMap& map = *map_;
+  const Vec2 o = map.field().origin();
+  const double inv_res = 1.0 / map.field().resolution();
+  const int w = map.width(), h = map.height();
+  const double c = std::cos(q.yaw), s = std::sin(q.yaw);
+  const double u0 = (q.x - o.x) * inv_res, v0 = (q.y - o.y) * inv_res;
+  const Pose2 lp = params_.laser_pose;
+  const double lu = u0 + (c * lp.x - s * lp.y) * inv_res, lv = v0 + (s * lp.x + c * lp.y) * inv_res;
+  const double floor_log = map.field().floor_log(), quantum = map.quantum();
+  const double near2 = std::pow(params_.occlusion_range * inv_res, 2);
+  double sum = 0;
+  int n = 0;
+  for (size_t b = 0; b < beam_ex_.size(); ++b) {
+    const double u = u0 + c * beam_ex_[b] - s * beam_ey_[b], v = v0 + s * beam_ex_[b] + c * beam_ey_[b];
+    if (!(u >= 0 && v >= 0 && u < w && v < h)) {
+      sum += floor_log;
+      ++n;
+      continue;
+    }
+    // March from the laser to the end in half-cell steps over the free bits.
+    const double du = u - lu, dv = v - lv;
+    bool short_beam = du * du + dv * dv < near2 && map.is_free(static_cast<int>(u), static_cast<int>(v));
+    if (short_beam) {
+      const int steps = static_cast<int>(std::ceil(2.0 * std::max(std::abs(du), std::abs(dv))));
+      for (int k = 1; k < steps && short_beam; ++k) {
+        const double f = static_cast<double>(k) / steps;
+        const double pu = lu + f * du, pv = lv + f * dv;
+        if (pu < 0 || pv < 0 || pu >= w || pv >= h || !map.is_free(static_cast<int>(pu), static_cast<int>(pv))) short_beam = false;
+      }
+    }
+    const int qv = map.quantised(static_cast<int>(u), static_cast<int>(v));
+    // A short beam that still lands near a wall (in the upper half of the table) is kept.
+    if (short_beam && qv < 128) continue;
+    const double ll = floor_log + quantum * qv;
+    sum += ll;
+    ++n;
+  }
+  *kept = n;
+  return n ? sum / n : kNegInf;
+}
+
 // The likelihood-field measurement update: per particle the tempered scan log-likelihood;
 // then the augmented-MCL averages (table 8.3) over the held particles' per-beam means.
 void MonteCarloLocalization::measure() {
@@ -431,8 +478,27 @@ void MonteCarloLocalization::measure() {
     // wrong injection would pull down while a good hypothesis survives).
     const double inv_nb = 1.0 / static_cast<double>(beam_ex_.size());
     double best = kNegInf;
-    for (size_t j = 0; j < np; ++j)
-      if (!injected_[j]) best = std::max(best, inv_nb * ll_[j]);
+    size_t jbest = 0;
+    for (size_t j = 0; j < np; ++j) {
+      if (!injected_[j] && inv_nb * ll_[j] > best) {
+        best = inv_nb * ll_[j];
+        jbest = j;
+      }
+    }
+    // Beams that end in free space short of the map's walls (the ray to the end crosses free
+    // cells only) are what an unmapped body in front of the laser gives - a person, a robot, a
+    // bag: no evidence that the pose is wrong. The gate judges the fit on the other beams, and
+    // holds (no injection) when too few are left.
+    if (best != kNegInf && params_.occlusion_range > 0) {
+      int kept = 0;
+      const double fit = fit_without_occlusions(particles_[jbest].pose, &kept);
+      if (kept < std::max(8, static_cast<int>(beam_ex_.size()) / 4)) {
+        best = kNegInf;
+        drop_run_ = 0;
+      } else {
+        best = fit;
+      }
+    }
     if (best != kNegInf) {
       held_best_ = best;
       const double log_avg = best;

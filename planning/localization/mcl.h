@@ -81,6 +81,11 @@ struct MclParams {
   // share is min(max_share, 1 - exp(w_fast - w_slow + recovery_drop)).
   double recovery_drop = 0.4;          // nats per beam                        "0.:0.05:10."
   int recovery_persistence = 3;        // updates in a row                     "1:1:1000"
+  // Beams ending within this range in free space, short of the map's walls (a person or robot
+  // close in front), do not count against the fit the gate judges; too few others left holds
+  // the gate. Off (0) by default: a filter that may have converged on a wrong but similar place
+  // needs those beams to leave it (global localisation); on for tracking among moving robots.
+  double occlusion_range = 0.0;        // m                                    "0.:0.5:50."
   // Sensor-guided sampling (as Thrun et al.'s mixture MCL proposes): a random particle is the
   // pick, by the current scan's likelihood, among `injection_candidates` uniform free poses per
   // particle needed; global initialisation scores `global_candidates` uniform poses with the
@@ -210,6 +215,7 @@ class MonteCarloLocalization {
   bool prepare_beams(const LaserScan& scan);
   void score(const Pose2* poses, size_t n, size_t stride, float* out) const;
   void measure();
+  double fit_without_occlusions(const Pose2& q, int* kept) const;
   void global_from_scan();
   int draw_guided(int count, Particle* out);
   void resample();

@@ -93,6 +93,30 @@ class Cyclic : public PatrolStrategy {
     if (at >= 0 && at == v[cursor_]) cursor_ = (cursor_ + 1) % v.size();
     return v[cursor_];
   }
+  int64_t walk_index() const override { return static_cast<int64_t>(cursor_); }
+  // At a vertex (the cursor has moved on to the next): my arc is that of the vertex before
+  // the cursor; a mate's is its target's arc less what it still has to drive. Hold while the
+  // gap to the robot ahead is shorter than the gap to the one behind by more than a tenth of
+  // the even spacing: half the difference, at cruise speed.
+  double hold(const PatrolKnowledge& k) const override {
+    const ClosedWalk& w = s_->tour;
+    if (k.others.empty() || w.length <= 0) return 0;
+    const size_t m = w.vertices.size();
+    const double L = w.length;
+    const double mine = w.arc[(cursor_ + m - 1) % m];
+    double ahead = L, behind = L;
+    for (const auto& [who, in] : k.others) {
+      if (in.walk_index < 0 || static_cast<size_t>(in.walk_index) >= m) continue;
+      const double remaining = std::max(0.0, in.eta - k.now) * s_->speed;
+      const double theirs = w.arc[static_cast<size_t>(in.walk_index)] - remaining;
+      const double d = circ(theirs - mine, L);
+      if (d > 1e-6) ahead = std::min(ahead, d);
+      if (L - d > 1e-6) behind = std::min(behind, L - d);
+    }
+    const double spacing = L / static_cast<double>(k.others.size() + 1);
+    if (ahead >= behind - 0.1 * spacing) return 0;
+    return std::min(0.5 * (behind - ahead), 0.5 * spacing) / s_->speed;
+  }
 
  private:
   std::shared_ptr<const PatrolSetup> s_;

@@ -12,6 +12,7 @@
 // recomputes its share from the same member list, so the shares stay consistent.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -42,6 +43,7 @@ struct PatrolKnowledge {
   struct Intention {
     int vertex = -1;
     double eta = 0;                     // the time it expects to arrive (s)
+    int64_t walk_index = -1;            // cyclic: its place on the shared walk (-1: none)
   };
   std::map<std::string, Intention> others;  // other members' current targets
   // Merges a visit heard from anyone.
@@ -59,6 +61,12 @@ class PatrolStrategy {
   // The vertex to head for next, from `p`, having just reached `at` (-1: none yet, at the start
   // or after a change of team).
   virtual int next(int at, Vec2 p, const PatrolKnowledge& k) = 0;
+  // How long to wait at the vertex just reached before leaving for the next (s; 0: go on).
+  // Asked every step while waiting. The cyclic strategy holds a robot that has caught up with
+  // the one ahead until it is half-way between its neighbours on the walk again.
+  virtual double hold(const PatrolKnowledge&) const { return 0; }
+  // Where this robot is on the shared walk (cyclic: the walk index it heads for; -1: none).
+  virtual int64_t walk_index() const { return -1; }
 };
 
 struct StrategyParams {

@@ -28,5 +28,6 @@ void add_node_commands(CLI::App& app);     // vigil camera-node, vigil server, v
 void add_bench_dds_commands(CLI::App* bench);  // vigil bench dds, vigil bench dds-echo
 void add_bench_mcl_command(CLI::App* bench);  // vigil bench mcl
 void add_bench_plan_command(CLI::App* bench);  // vigil bench plan
+void add_bench_patrol_command(CLI::App* bench);  // vigil bench patrol
 
 }  // namespace vigil::cli

@@ -1,0 +1,371 @@
+// team: a patrolling robot of a team (chapter 10.2, 10.6). It drives through the navigator
+// (plugins/navigator/navigator.h: MCL, two-level planner, pure pursuit) and decides where to go
+// with a patrol strategy over a patrol graph (planning/patrol/strategy.h), sharing with its
+// team what it knows: team messages (world/plugin.h TeamMessage) that the transport carries,
+// the run's team bus inside `vigil run`, DDS between processes. It never sees which.
+//
+// Messages it sends and understands:
+//   hello  every `hello_period` s: position = its estimate, value = 1 while patrolling. A team
+//          is the robots heard from in the last `member_timeout` s; it is formed after
+//          `discovery_time` s and re-formed whenever a member joins, leaves or stops patrolling.
+//   visit  when it passes a vertex (within `visit_radius` of its estimate): vertex, value = the
+//          time, next_vertex = where it heads now, value2 = when it expects to get there.
+// Tasks in its inbox (goto, cancel, stop) go to the navigator: a goto takes it off patrol
+// ("respond") until the goal is reached or fails, then it rejoins.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+
+#include "planning/patrol/strategy.h"
+#include "plugins/navigator/navigator.h"
+#include "plugins/plugin_export.h"
+
+namespace vigil::plugins {
+namespace {
+
+namespace fs = std::filesystem;
+using planning::patrol::PatrolGraph;
+using planning::patrol::PatrolKnowledge;
+using planning::patrol::PatrolSetup;
+
+// One setup per graph file, map, planner and speed, shared by every robot of the process: the
+// travel costs are the planner's path lengths between every pair of vertices.
+Result<std::shared_ptr<const PatrolSetup>> shared_setup(const fs::path& file, const OccupancyGrid* map,
+                                                        const planning::TwoLevelPlanner& planner, double speed,
+                                                        const std::string& scenario, int line) {
+  static std::mutex mu;
+  static std::map<std::tuple<std::string, const OccupancyGrid*, const void*, long long>, std::shared_ptr<const PatrolSetup>> cache;
+  std::lock_guard<std::mutex> lock(mu);
+  auto key = std::make_tuple(fs::weakly_canonical(file).string(), map, static_cast<const void*>(&planner),
+                             std::llround(speed * 1e6));
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  auto g = PatrolGraph::read(file);
+  if (!g) return g.error();
+  planning::patrol::CostMatrix travel(g->size());
+  for (size_t a = 0; a < g->size(); ++a) {
+    const Vec2 p = g->vertex(a).position;
+    if (!map->is_free(p)) {
+      return bad_input(file.string(), 0, "vertex " + std::to_string(a),
+                       "at (" + std::to_string(p.x) + ", " + std::to_string(p.y) + ") is not in the map's free space (" +
+                           scenario + ":" + std::to_string(line) + ")");
+    }
+  }
+  for (size_t a = 0; a < g->size(); ++a) {
+    for (size_t b = a + 1; b < g->size(); ++b) {
+      const auto r = planner.plan(g->vertex(a).position, g->vertex(b).position, nullptr);
+      if (!planning::has_path(r.outcome)) {
+        return bad_input(file.string(), 0, "vertex " + std::to_string(b),
+                         "cannot be reached from vertex " + std::to_string(a) + " on the map: " +
+                             planning::to_string(r.outcome) + ": " + r.detail);
+      }
+      travel.set(static_cast<int>(a), static_cast<int>(b), r.length);
+    }
+  }
+  auto setup = PatrolSetup::make(std::move(*g), std::move(travel), speed);
+  cache[key] = setup;
+  return setup;
+}
+
+class Team : public Plugin {
+ public:
+  std::vector<ParamSpec> params() const override {
+    std::vector<ParamSpec> p = nav_.params();
+    // Robots of a team pass close to each other: their localisation must not take a mate in
+    // front of the laser for a sign of being lost.
+    for (ParamSpec& s : p) {
+      if (s.name == "occlusion_range") s.default_value = 3.0;
+    }
+    const std::vector<ParamSpec> own = {
+        {"graph", ParamType::kString, std::string(""), 0, 0, "patrol graph file (patrolling_sim format), relative to the scenario"},
+        {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},
+        {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
+        {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
+        {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
+        {"hello_period", ParamType::kNumber, 0.5, 0.05, 60.0, "announce itself to the team this often (s)"},
+        {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
+    };
+    p.insert(p.end(), own.begin(), own.end());
+    return p;
+  }
+
+  Status configure(const ParamSet& p, const PluginContext& ctx) override {
+    ctx_ = ctx;
+    if (Status s = nav_.configure(p, ctx); !s) return s;
+    const std::string graph = p.string("graph");
+    if (graph.empty()) return bad_input(ctx.scenario_file, ctx.line, "params.graph", "a team robot needs a patrol graph");
+    fs::path file = graph;
+    if (file.is_relative()) file = fs::path(ctx.scenario_file).parent_path() / file;
+    auto setup = shared_setup(file, ctx.map, nav_.planner(), nav_.cruise_speed(), ctx.scenario_file, ctx.line);
+    if (!setup) {
+      Error e = setup.error();
+      if (e.file.empty()) e.file = ctx.scenario_file;
+      e.message = "params.graph: " + e.message;
+      return e;
+    }
+    setup_ = *setup;
+    strategy_name_ = p.string("strategy");
+    params_.theta = p.number("theta");
+    auto s = planning::patrol::make_strategy(strategy_name_, setup_, params_);
+    if (!s) return bad_input(ctx.scenario_file, ctx.line, "params.strategy", s.error().message);
+    visit_radius_ = p.number("visit_radius");
+    discovery_ = from_seconds(p.number("discovery_time"));
+    hello_every_ = from_seconds(p.number("hello_period"));
+    member_timeout_ = from_seconds(p.number("member_timeout"));
+    return Status::Ok();
+  }
+
+  void reset() override {
+    nav_.reset();
+    strategy_ = std::move(*planning::patrol::make_strategy(strategy_name_, setup_, params_));
+    knowledge_ = PatrolKnowledge();
+    knowledge_.last_visit.assign(setup_->graph.size(), 0.0);
+    mates_.clear();
+    team_.clear();
+    formed_ = false;
+    holding_ = false;
+    target_ = -1;
+    last_at_ = -1;
+    inside_.assign(setup_->graph.size(), 0);
+    next_hello_ = 0;
+    role_ = "patrol";
+    responding_ = false;
+    pending_.clear();
+  }
+
+  void update(const WorldView& world, ModelCommand& cmd) override {
+    now_ = world.time();
+    knowledge_.now = to_seconds(now_);
+    for (const TeamMessage& m : cmd.take_messages()) receive(m);
+    for (RobotTask& t : cmd.take_tasks()) {
+      if (t.kind == "goto") {
+        responding_ = true;
+        role_ = "respond";
+      } else if (t.kind == "cancel" || t.kind == "stop") {
+        responding_ = false;
+        role_ = "patrol";
+        target_ = -1;
+      }
+      pending_.push_back(std::move(t));
+    }
+    if (now_ >= next_hello_) {
+      TeamMessage h;
+      h.kind = "hello";
+      h.position = nav_.pose().position();
+      h.value = patrolling() ? 1 : 0;
+      cmd.send(h);
+      next_hello_ = now_ + hello_every_;
+    }
+    if (nav_.is_localized()) {
+      note_visits(cmd);
+      if (patrolling()) {
+        update_team();
+        if (formed_) patrol(cmd);
+      }
+    }
+    struct Proxy : ModelCommand {
+      ModelCommand* real;
+      Team* self;
+      void set_velocity(double v, double w) override { real->set_velocity(v, w); }
+      std::vector<RobotTask> take_tasks() override {
+        std::vector<RobotTask> t;
+        t.swap(self->pending_);
+        return t;
+      }
+      void report(const RobotReport& r) override { self->forward(*real, r); }
+      void send(const TeamMessage& m) override { real->send(m); }
+      std::vector<TeamMessage> take_messages() override { return {}; }
+    } proxy;
+    proxy.real = &cmd;
+    proxy.self = this;
+    nav_.update(world, proxy);
+  }
+
+ private:
+  bool patrolling() const { return !responding_; }
+
+  void receive(const TeamMessage& m) {
+    if (m.kind == "hello") {
+      Mate& mate = mates_[m.from];
+      mate.where = m.position;
+      mate.heard = now_;
+      mate.patrolling = m.value > 0.5;
+    } else if (m.kind == "visit") {
+      knowledge_.visited(m.vertex, m.value);
+      Mate& mate = mates_[m.from];
+      mate.heard = now_;
+      mate.where = m.position;
+      knowledge_.others[m.from] = {m.next_vertex, m.value2, m.seq};
+      // Two robots heading for one vertex (greedy): the later one chooses again.
+      if (strategy_name_ == "greedy" && m.next_vertex == target_ && target_ >= 0) {
+        const bool they_first = m.value2 < eta_ - 1e-6 || (std::abs(m.value2 - eta_) <= 1e-6 && m.from < ctx_.model_id);
+        if (they_first) rechoose_ = true;
+      }
+    }
+  }
+
+  // The team: me and the mates heard from recently that are patrolling. Re-formed (shares
+  // recomputed) when that set changes.
+  void update_team() {
+    if (now_ < discovery_) return;
+    std::vector<std::string> members{ctx_.model_id};
+    for (const auto& [id, m] : mates_) {
+      if (m.patrolling && now_ - m.heard <= member_timeout_) members.push_back(id);
+    }
+    for (auto it = knowledge_.others.begin(); it != knowledge_.others.end();) {
+      if (std::find(members.begin(), members.end(), it->first) == members.end()) it = knowledge_.others.erase(it);
+      else ++it;
+    }
+    std::sort(members.begin(), members.end());
+    if (formed_ && members == team_) return;
+    team_ = members;
+    std::vector<Vec2> where;
+    int me = 0;
+    for (size_t i = 0; i < members.size(); ++i) {
+      if (members[i] == ctx_.model_id) {
+        me = static_cast<int>(i);
+        where.push_back(nav_.pose().position());
+      } else {
+        where.push_back(mates_[members[i]].where);
+      }
+    }
+    strategy_->set_team(members, where, me);
+    formed_ = true;
+    holding_ = false;
+    target_ = -1;
+  }
+
+  // Vertices passed (entered within the visit radius of the estimate), told to the team.
+  void note_visits(ModelCommand& cmd) {
+    const Vec2 p = nav_.pose().position();
+    for (size_t i = 0; i < setup_->graph.size(); ++i) {
+      const double d = (setup_->graph.vertex(i).position - p).norm();
+      if (!inside_[i] && d <= visit_radius_) {
+        inside_[i] = 1;
+        knowledge_.visited(static_cast<int>(i), knowledge_.now);
+        visited_now_.push_back(static_cast<int>(i));
+      } else if (inside_[i] && d > 1.5 * visit_radius_) {
+        inside_[i] = 0;
+      }
+    }
+    (void)cmd;
+  }
+
+  void tell_visit(ModelCommand& cmd, int vertex) {
+    TeamMessage m;
+    m.kind = "visit";
+    m.vertex = vertex;
+    m.value = knowledge_.now;
+    m.next_vertex = target_;
+    m.value2 = eta_;
+    m.seq = strategy_->walk_index();
+    m.position = nav_.pose().position();
+    cmd.send(m);
+  }
+
+  void head_for(int v, ModelCommand& cmd, int visited) {
+    target_ = v;
+    const Vec2 goal = setup_->graph.vertex(v).position;
+    const Vec2 p = nav_.pose().position();
+    eta_ = knowledge_.now + (last_at_ >= 0 ? setup_->travel(last_at_, v) : (goal - p).norm()) / setup_->speed;
+    nav_.go_to(goal, 0, "vertex " + std::to_string(v), true);
+    tell_visit(cmd, visited);
+  }
+
+  void patrol(ModelCommand& cmd) {
+    const Vec2 p = nav_.pose().position();
+    // Visits on the way (not the target) are told with the current target.
+    for (int v : visited_now_) {
+      if (v != target_) tell_visit(cmd, v);
+    }
+    const bool reached = target_ >= 0 && (setup_->graph.vertex(target_).position - p).norm() <= visit_radius_;
+    visited_now_.clear();
+    if (target_ < 0) {
+      last_at_ = -1;
+      head_for(strategy_->next(-1, p, knowledge_), cmd, -1);
+      return;
+    }
+    if (holding_) {
+      // Waiting at a vertex for the spacing to even out (the strategy says how long).
+      if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_) return;
+      holding_ = false;
+      nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      eta_ = knowledge_.now + setup_->travel(last_at_, target_) / setup_->speed;
+      tell_visit(cmd, -1);
+      return;
+    }
+    if (reached) {
+      last_at_ = target_;
+      head_for(strategy_->next(target_, p, knowledge_), cmd, last_at_);
+      const double h = strategy_->hold(knowledge_);
+      if (h > 0.25) {
+        holding_ = true;
+        hold_until_ = now_ + from_seconds(h);
+        nav_.halt();
+        eta_ += h;
+        tell_visit(cmd, -1);
+      }
+      return;
+    }
+    // The navigator gave the vertex up: pass over it.
+    if (!nav_.has_goal() && nav_.mode() == "failed") {
+      last_at_ = -1;
+      head_for(strategy_->next(target_, p, knowledge_), cmd, -1);
+      return;
+    }
+    if (rechoose_) {
+      rechoose_ = false;
+      const int before = target_;
+      const int nv = strategy_->next(last_at_, p, knowledge_);
+      if (nv != before) head_for(nv, cmd, -1);
+    }
+  }
+
+  void forward(ModelCommand& cmd, const RobotReport& r) {
+    RobotReport out = r;
+    out.role = role_;
+    if (responding_ && (r.event == "goal_reached" || r.event == "goal_failed") && r.task_id != 0) {
+      // Back to patrol; the team takes me in again.
+      responding_ = false;
+      role_ = "patrol";
+      target_ = -1;
+      formed_ = false;
+    }
+    cmd.report(out);
+  }
+
+  struct Mate {
+    Vec2 where;
+    SimTime heard = 0;
+    bool patrolling = true;
+  };
+
+  Navigator nav_;
+  PluginContext ctx_;
+  std::shared_ptr<const PatrolSetup> setup_;
+  std::string strategy_name_;
+  planning::patrol::StrategyParams params_;
+  std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
+  double visit_radius_ = 0.5;
+  SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
+
+  SimTime now_ = 0, next_hello_ = 0;
+  PatrolKnowledge knowledge_;
+  std::map<std::string, Mate> mates_;
+  std::vector<std::string> team_;
+  bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false;
+  SimTime hold_until_ = 0;
+  int target_ = -1, last_at_ = -1;
+  double eta_ = 0;
+  std::vector<char> inside_;
+  std::vector<int> visited_now_;
+  std::string role_ = "patrol";
+  std::vector<RobotTask> pending_;
+};
+
+}  // namespace
+}  // namespace vigil::plugins
+
+VIGIL_PLUGIN(team, vigil::plugins::Team)

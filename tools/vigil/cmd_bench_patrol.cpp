@@ -1,0 +1,175 @@
+// vigil bench patrol: multi-robot patrolling (plugins/team, planning/patrol) with the real
+// navigator (MCL, two-level planner, pure pursuit) on the real DIAG_labs and DIAG_floor1 maps
+// and their patrolling_sim graphs: per strategy and team size, the idleness over the run (the
+// intervals between successive visits of a vertex after its first, measured on the robots'
+// true positions), beside the reference: the shortest closed walk through every vertex over
+// (robots x speed).
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "planning/patrol/idleness.h"
+#include "planning/patrol/patrol_graph.h"
+#include "planning/patrol/tour.h"
+#include "plugins/builtin.h"
+#include "tools/vigil/commands.h"
+#include "tools/vigil/plugin_search.h"
+#include "world/map.h"
+#include "world/team_bus.h"
+#include "world/world.h"
+
+namespace vigil::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace planning::patrol;
+
+struct PatrolBenchOptions {
+  std::vector<std::string> maps;
+  std::vector<int> robots{1, 2, 4, 6, 8, 12};
+  std::vector<std::string> strategies{"cyclic", "partition", "greedy"};
+  double seconds = 1800, speed = 1.0, physics_hz = 10, visit_radius = 0.5;
+  uint64_t seed = 1;
+  std::string json;
+};
+
+struct MapCase {
+  std::string name;
+  fs::path map, graph;
+};
+
+std::vector<MapCase> bench_maps(const std::vector<std::string>& names) {
+  const fs::path src = VIGIL_SOURCE_DIR;
+  std::vector<MapCase> out;
+  for (const std::string& n : names) {
+    if (n == "dis_labs") {
+      out.push_back({n, src / "maps" / "dis_labs.yaml", src / "maps" / "dis_labs.graph"});
+    } else {
+      const fs::path dir = src / ".." / "shared" / "data" / "maps" / n;
+      out.push_back({n, dir / (n + ".yaml"), dir / (n + ".graph")});
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void add_bench_patrol_command(CLI::App* bench) {
+  auto o = std::make_shared<PatrolBenchOptions>();
+  auto* cmd = bench->add_subcommand("patrol", "Patrol idleness per strategy and team size, real navigator on the real maps");
+  cmd->add_option("--maps", o->maps, "DIAG_labs, DIAG_floor1 (../shared/data) or dis_labs (default: the DIAG maps when present)")
+      ->delimiter(',');
+  cmd->add_option("--robots", o->robots, "team sizes")->delimiter(',');
+  cmd->add_option("--strategies", o->strategies, "cyclic, partition, greedy")->delimiter(',');
+  cmd->add_option("--seconds", o->seconds, "simulated seconds per run")->capture_default_str();
+  cmd->add_option("--speed", o->speed, "robots' cruise and top speed (m/s)")->capture_default_str();
+  cmd->add_option("--physics-hz", o->physics_hz, "physics rate")->capture_default_str();
+  cmd->add_option("--visit-radius", o->visit_radius, "a vertex is visited within this distance (m)")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "seed")->capture_default_str();
+  cmd->add_option("--json", o->json, "also write the results as JSON to this file");
+  cmd->callback([o] {
+    std::vector<std::string> names = o->maps;
+    if (names.empty()) {
+      const fs::path shared = fs::path(VIGIL_SOURCE_DIR) / ".." / "shared" / "data" / "maps";
+      if (fs::exists(shared / "DIAG_labs")) names = {"DIAG_labs", "DIAG_floor1"};
+      else {
+        std::printf("../shared/data not found beside the checkout: benchmarking on maps/dis_labs only\n");
+        names = {"dis_labs"};
+      }
+    }
+    const fs::path urdf = fs::path(VIGIL_SOURCE_DIR) / "maps" / "robots" / "erratic.urdf";
+    nlohmann::ordered_json results = nlohmann::ordered_json::array();
+    for (const MapCase& mc : bench_maps(names)) {
+      auto graph = PatrolGraph::read(mc.graph);
+      if (!graph) throw Exit{report(graph.error())};
+      GraphDistances dist(*graph);
+      const ClosedWalk tour = closed_walk(*graph, dist);
+      std::printf("vigil bench patrol: %s, %zu vertices, shortest closed walk %.1f m, %.1f m/s, %.0f s simulated, "
+                  "physics %.0f Hz, visits within %.1f m (true positions)\n",
+                  mc.name.c_str(), graph->size(), tour.length, o->speed, o->seconds, o->physics_hz, o->visit_radius);
+      std::printf("%-10s %6s %9s %9s %9s %7s %9s %9s %9s %7s %7s %8s\n", "strategy", "robots", "ref s", "avg s", "worst s",
+                  "std s", "avg/ref", "worst/ref", "intervals", "interf", "failed", "wall s");
+      std::vector<Vec2> vertices;
+      for (const auto& v : graph->vertices()) vertices.push_back(v.position);
+      for (const std::string& strategy : o->strategies) {
+        for (int n : o->robots) {
+          Scenario sc;
+          sc.file = mc.graph.string();
+          sc.name = "bench_patrol";
+          sc.map = mc.map;
+          sc.duration = o->seconds;
+          sc.seed = o->seed;
+          sc.physics_rate_hz = o->physics_hz;
+          for (int k = 0; k < n; ++k) {
+            RobotSpec r;
+            r.id = "robot" + std::to_string(k + 1);
+            r.urdf = urdf;
+            // Spread over the vertex list (patrolling_sim starts robots at chosen vertices).
+            const Vec2 p = graph->vertex(static_cast<size_t>(k) * graph->size() / static_cast<size_t>(n)).position;
+            r.start = {p.x, p.y, 0.0};
+            r.controller = "team";
+            r.params["graph"] = {fs::absolute(mc.graph).string(), 0};
+            r.params["strategy"] = {strategy, 0};
+            r.params["speed"] = {o->speed, 0};
+            r.params["visit_radius"] = {o->visit_radius, 0};
+            r.max_speed = o->speed;
+            r.ranger.enabled = true;
+            r.ranger.samples = 271;
+            r.ranger.fov = 270 * M_PI / 180;
+            r.ranger.range_max = 20;
+            r.ranger.noise_std = 0.01;
+            r.odometry.error_x = r.odometry.error_y = 0.01;
+            r.odometry.error_yaw = 0.1;
+            sc.robots.push_back(r);
+          }
+          WorldOptions wo;
+          wo.plugins = builtin_plugin_registry();
+          wo.plugin_dirs = plugin_search_path();
+          auto world = World::create(sc, wo);
+          if (!world) throw Exit{report(world.error())};
+          LocalTeamBus bus;
+          VisitDetector visits(vertices, o->visit_radius);
+          InterferenceCounter interf(2.0);
+          const SimTime sample_every = from_seconds(0.2);
+          SimTime next_sample = 0;
+          int failed = 0;
+          const auto t0 = std::chrono::steady_clock::now();
+          while (!(*world)->finished()) {
+            if (Status s = (*world)->advance(); !s) throw Exit{report(s.error())};
+            bus.exchange(**world);
+            for (const RobotReport& rep : (*world)->drain_reports()) failed += rep.event == "goal_failed";
+            if ((*world)->time() >= next_sample) {
+              std::vector<std::pair<std::string, Vec2>> at;
+              for (const RobotEntity& r : (*world)->robots()) {
+                visits.observe(r.spec.id, to_seconds((*world)->time()), r.pose.position());
+                at.push_back({r.spec.id, r.pose.position()});
+              }
+              interf.observe(at);
+              next_sample += sample_every;
+            }
+          }
+          const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          const IdlenessStats st = idleness(visits.visits(), static_cast<int>(graph->size()), o->seconds);
+          const double ref = tour.length / (n * o->speed);
+          std::printf("%-10s %6d %9.1f %9.1f %9.1f %7.1f %9.2f %9.2f %9d %7d %7d %8.1f%s\n", strategy.c_str(), n, ref,
+                      st.average, st.worst, st.stddev, st.average / ref, st.worst / ref, st.intervals, interf.count(),
+                      failed, wall, st.unvisited ? "  (unvisited vertices!)" : "");
+          std::fflush(stdout);
+          results.push_back({{"map", mc.name}, {"strategy", strategy}, {"robots", n}, {"reference_s", ref},
+                             {"average_s", st.average}, {"worst_s", st.worst}, {"stddev_s", st.stddev},
+                             {"median_s", st.median}, {"intervals", st.intervals}, {"visits", st.visits},
+                             {"unvisited", st.unvisited}, {"interferences", interf.count()}, {"goals_failed", failed},
+                             {"tour_m", tour.length}, {"wall_seconds", wall}});
+        }
+      }
+    }
+    if (!o->json.empty()) {
+      std::ofstream f(o->json);
+      f << results.dump(2) << "\n";
+    }
+  });
+}
+
+}  // namespace vigil::cli
