@@ -1,0 +1,249 @@
+// The team: team messages on the world and the run's bus (world/team_bus.h), and the team
+// controller (plugins/team) patrolling the DIS graph with the real navigator.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "planning/patrol/idleness.h"
+#include "planning/patrol/patrol_graph.h"
+#include "plugins/builtin.h"
+#include "tests/test_util.h"
+#include "world/runner.h"
+#include "world/scenario.h"
+#include "world/sha256.h"
+#include "world/team_bus.h"
+
+namespace vigil {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A controller that sends one message a step (to `to`, or everyone) and keeps what it gets.
+struct Chatter : Plugin {
+  static inline std::map<std::string, std::vector<TeamMessage>> got;
+  std::string id, to;
+  std::vector<ParamSpec> params() const override {
+    return {{"to", ParamType::kString, std::string(""), 0, 0, "recipient"}};
+  }
+  Status configure(const ParamSet& p, const PluginContext& ctx) override {
+    id = ctx.model_id;
+    to = p.string("to");
+    return Status::Ok();
+  }
+  void reset() override { got[id].clear(); }
+  void update(const WorldView& w, ModelCommand& cmd) override {
+    for (TeamMessage& m : cmd.take_messages()) got[id].push_back(m);
+    TeamMessage m;
+    m.kind = "ping";
+    m.to = to;
+    m.seq = w.time() / w.step_length();
+    cmd.send(m);
+  }
+};
+
+const char* kThree = R"(
+name: chatter
+map: ../maps/dis_labs.yaml
+duration: 2
+seed: 1
+physics_rate_hz: 10
+robots:
+  - {id: a, urdf: ../maps/robots/erratic.urdf, start: [6, 3.1, 0], controller: chatter, params: {to: c}}
+  - {id: b, urdf: ../maps/robots/erratic.urdf, start: [16, 3.1, 0], controller: chatter}
+  - {id: c, urdf: ../maps/robots/erratic.urdf, start: [26, 3.1, 0], controller: chatter}
+)";
+
+void run_chatter(const TeamBusOptions& bus) {
+  auto sc = parse_scenario(kThree, test::source_dir() / "scenarios" / "inline_team.yaml");
+  ASSERT_TRUE(sc.ok()) << sc.error().str();
+  auto reg = std::make_shared<PluginRegistry>();
+  reg->add_builtin("chatter", [] { return std::make_unique<Chatter>(); });
+  RunOptions ro;
+  ro.world.plugins = reg;
+  ro.video = false;
+  ro.team_bus = bus;
+  auto s = run_scenario(*sc, ro);
+  ASSERT_TRUE(s.ok()) << s.error().str();
+}
+
+TEST(TeamBus, DeliversNextStepToTheAddresseeOrEveryoneElse) {
+  run_chatter({});
+  // 20 steps: a sends to c only; b broadcasts to a and c; c broadcasts to a and b.
+  auto& g = Chatter::got;
+  std::map<std::string, int> from_a, from_b, from_c;
+  for (auto& [who, ms] : g) {
+    for (auto& m : ms) {
+      EXPECT_NE(m.from, who) << "a robot got its own broadcast";
+      EXPECT_EQ(m.kind, "ping");
+      EXPECT_LT(m.sent, from_seconds(2.0));
+      (m.from == "a" ? from_a : m.from == "b" ? from_b : from_c)[who]++;
+    }
+  }
+  EXPECT_EQ(from_a["c"], 19);  // sent in steps 0..18 arrive by the end (the last step's is in flight)
+  EXPECT_EQ(from_a["b"], 0);
+  EXPECT_EQ(from_b["a"], 19);
+  EXPECT_EQ(from_b["c"], 19);
+  EXPECT_EQ(from_c["a"], 19);
+  // In order, and never in the step it was sent.
+  for (size_t i = 1; i < g["c"].size(); ++i) {
+    if (g["c"][i].from == "a" && g["c"][i - 1].from == "a") EXPECT_GT(g["c"][i].seq, g["c"][i - 1].seq);
+  }
+}
+
+TEST(TeamBus, LatencyLossAndSilenceAreFaultsAProtocolMustSurvive) {
+  TeamBusOptions late;
+  late.latency_s = 0.5;
+  run_chatter(late);
+  int n = 0;
+  for (auto& m : Chatter::got["c"]) n += m.from == "a";
+  EXPECT_EQ(n, 15);  // 0.5 s later: the last 5 steps' are still in flight
+
+  TeamBusOptions lossy;
+  lossy.drop_probability = 0.5;
+  lossy.seed = 3;
+  run_chatter(lossy);
+  const auto first = Chatter::got;
+  run_chatter(lossy);
+  int delivered = 0;
+  for (auto& [who, ms] : Chatter::got) delivered += static_cast<int>(ms.size());
+  EXPECT_GT(delivered, 20);
+  EXPECT_LT(delivered, 75);  // of 95
+  EXPECT_EQ(first.at("c").size(), Chatter::got.at("c").size());  // the same losses for the same seed
+
+  TeamBusOptions quiet;
+  quiet.silences.push_back({"b", 0.5, 1.5});
+  run_chatter(quiet);
+  for (auto& [who, ms] : Chatter::got) {
+    for (auto& m : ms) {
+      const bool in_window = m.sent >= from_seconds(0.5) && m.sent < from_seconds(1.5);
+      if (in_window) EXPECT_TRUE(m.from != "b" && who != "b") << who << " got " << m.from << " at " << m.sent;
+    }
+  }
+}
+
+// Two team robots on the DIS graph with the real navigator.
+std::string team_scenario(const std::string& strategy, double duration) {
+  return R"(
+name: team_inline
+map: ../maps/dis_labs.floorplan.yaml
+duration: )" + std::to_string(duration) + R"(
+seed: 2
+physics_rate_hz: 10
+record_rate_hz: 5
+robots:
+  - id: robot1
+    urdf: ../maps/robots/erratic.urdf
+    start: [7.0, 3.1, 0]
+    controller: team
+    max_speed: 1.0
+    params: {graph: ../maps/dis_labs.graph, strategy: )" + strategy + R"(, speed: 1.0}
+    ranger: {range_max: 20, fov_deg: 270, samples: 271, noise_std: 0.01, rate_hz: 10}
+    odometry: {error: [0.01, 0.01, 0.1]}
+  - id: robot2
+    urdf: ../maps/robots/erratic.urdf
+    start: [28.0, 3.1, 0]
+    controller: team
+    max_speed: 1.0
+    params: {graph: ../maps/dis_labs.graph, strategy: )" + strategy + R"(, speed: 1.0}
+    ranger: {range_max: 20, fov_deg: 270, samples: 271, noise_std: 0.01, rate_hz: 10}
+    odometry: {error: [0.01, 0.01, 0.1]}
+)";
+}
+
+struct TeamRun {
+  RunSummary summary;
+  fs::path dir;
+  std::vector<planning::patrol::Visit> visits;
+};
+
+TeamRun run_team(const std::string& strategy, double duration, const std::string& name, TeamBusOptions bus = {}) {
+  TeamRun r;
+  auto sc = parse_scenario(team_scenario(strategy, duration), test::source_dir() / "scenarios" / "inline_team.yaml");
+  EXPECT_TRUE(sc.ok()) << sc.error().str();
+  if (!sc.ok()) return r;
+  auto graph = planning::patrol::PatrolGraph::read(test::source_dir() / "maps" / "dis_labs.graph");
+  EXPECT_TRUE(graph.ok()) << graph.error().str();
+  std::vector<Vec2> v;
+  for (const auto& x : graph->vertices()) v.push_back(x.position);
+  planning::patrol::VisitDetector det(v, 0.5);
+  struct Watch : RunObserver {
+    planning::patrol::VisitDetector* det;
+    Status after_step(const World& w) override {
+      if (w.steps() % 2 == 0) {
+        for (const RobotEntity& r : w.robots()) det->observe(r.spec.id, to_seconds(w.time()), r.pose.position());
+      }
+      return Status::Ok();
+    }
+  } watch;
+  watch.det = &det;
+  r.dir = test::fresh_temp_dir("team", name);
+  RunOptions ro;
+  ro.world.plugins = builtin_plugin_registry();
+  ro.out_dir = r.dir;
+  ro.video = false;
+  ro.team_bus = bus;
+  ro.observers.push_back(&watch);
+  auto s = run_scenario(*sc, ro);
+  EXPECT_TRUE(s.ok()) << s.error().str();
+  if (s.ok()) r.summary = *s;
+  r.visits = det.visits();
+  return r;
+}
+
+std::set<int> visited_by(const TeamRun& r, const std::string& robot, double from, double to) {
+  std::set<int> out;
+  for (const auto& v : r.visits)
+    if (v.robot == robot && v.t >= from && v.t < to) out.insert(v.vertex);
+  return out;
+}
+
+TEST(Team, CyclicPatrolCoversTheGraphAndRepeatsByteForByte) {
+  TeamRun a = run_team("cyclic", 240, "cyc_a"), b = run_team("cyclic", 240, "cyc_b");
+  EXPECT_EQ(a.summary.ground_truth_sha256, b.summary.ground_truth_sha256);
+  EXPECT_EQ(sha256_hex(test::slurp(a.dir / "robots.jsonl")), sha256_hex(test::slurp(b.dir / "robots.jsonl")));
+  std::set<int> all = visited_by(a, "robot1", 0, 1e9);
+  for (int v : visited_by(a, "robot2", 0, 1e9)) all.insert(v);
+  EXPECT_EQ(all.size(), 17u) << "every vertex of the DIS graph visited";
+  const auto st = planning::patrol::idleness(a.visits, 17, 240);
+  // Two robots on a 168 m walk at 1 m/s: about 84 s between visits at the most when spread.
+  EXPECT_GT(st.intervals, 40);
+  EXPECT_LT(st.average, 84.0);
+  EXPECT_NE(test::slurp(a.dir / "robots.jsonl").find("\"role\":\"patrol\""), std::string::npos);
+  fs::remove_all(a.dir);
+  fs::remove_all(b.dir);
+}
+
+TEST(Team, PartitionSplitsTheGraphAndASilentMateSShareIsTakenOver) {
+  // Robot1 falls silent from 60 s: robot2 stops hearing it and patrols the whole graph.
+  TeamBusOptions bus;
+  bus.silences.push_back({"robot1", 60.0, 1e9});
+  TeamRun r = run_team("partition", 420, "part", bus);
+  const std::set<int> r1 = visited_by(r, "robot1", 0, 60), r2 = visited_by(r, "robot2", 0, 60);
+  // Before: each in its own region (the start vertices' regions differ).
+  EXPECT_FALSE(r1.empty());
+  EXPECT_FALSE(r2.empty());
+  const std::set<int> later = visited_by(r, "robot2", 70, 420);
+  EXPECT_EQ(later.size(), 17u) << "robot2 took over robot1's region";
+  fs::remove_all(r.dir);
+}
+
+TEST(Team, BadGraphOrStrategyNamesTheKey) {
+  auto bad = [](const std::string& from, const std::string& to) {
+    std::string text = team_scenario("cyclic", 10);
+    text.replace(text.find(from), from.size(), to);
+    auto sc = parse_scenario(text, test::source_dir() / "scenarios" / "inline_team.yaml");
+    EXPECT_TRUE(sc.ok());
+    WorldOptions wo;
+    wo.plugins = builtin_plugin_registry();
+    auto w = World::create(*sc, wo);
+    EXPECT_FALSE(w.ok());
+    return w.ok() ? std::string() : w.error().str();
+  };
+  EXPECT_NE(bad("strategy: cyclic", "strategy: spiral").find("params.strategy"), std::string::npos);
+  EXPECT_NE(bad("graph: ../maps/dis_labs.graph", "graph: ../maps/nowhere.graph").find("cannot open the patrol graph"),
+            std::string::npos);
+  EXPECT_NE(bad("graph: ../maps/dis_labs.graph", "graph: ../maps/dis_labs.yaml").find("params.graph"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace vigil
