@@ -2,6 +2,7 @@
 // controller (plugins/team) patrolling the DIS graph with the real navigator.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "planning/patrol/idleness.h"
@@ -209,6 +210,16 @@ TEST(Team, CyclicPatrolCoversTheGraphAndRepeatsByteForByte) {
   EXPECT_GT(st.intervals, 40);
   EXPECT_LT(st.average, 84.0);
   EXPECT_NE(test::slurp(a.dir / "robots.jsonl").find("\"role\":\"patrol\""), std::string::npos);
+  // vigil eval measures the same from the run's files (the graph from --graph).
+  const std::string cmd = std::string(VIGIL_BINARY) + " eval " + a.dir.string() + " --graph " +
+                          (test::source_dir() / "maps" / "dis_labs.graph").string() + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  auto eval = nlohmann::json::parse(test::slurp(a.dir / "eval.json"));
+  ASSERT_TRUE(eval.contains("patrol"));
+  EXPECT_EQ(eval["patrol"]["vertices"], 17);
+  EXPECT_EQ(eval["patrol"]["unvisited"], 0);
+  EXPECT_GT(eval["patrol"]["intervals"].get<int>(), 40);
+  EXPECT_NEAR(eval["patrol"]["reference_s"].get<double>(), eval["patrol"]["tour_m"].get<double>() / 2.0, 1e-6);
   fs::remove_all(a.dir);
   fs::remove_all(b.dir);
 }

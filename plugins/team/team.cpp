@@ -126,6 +126,7 @@ class Team : public Plugin {
     team_.clear();
     formed_ = false;
     holding_ = false;
+    failed_at_ = -1;
     target_ = -1;
     last_at_ = -1;
     inside_.assign(setup_->graph.size(), 0);
@@ -309,8 +310,12 @@ class Team : public Plugin {
       }
       return;
     }
-    // The navigator gave the vertex up: pass over it.
+    // The navigator gave the vertex up: pass over it, after a pause (a robot that cannot plan
+    // from where it is would otherwise retry every step).
     if (!nav_.has_goal() && nav_.mode() == "failed") {
+      if (failed_at_ < 0) failed_at_ = now_;
+      if (now_ - failed_at_ < from_seconds(2.0)) return;
+      failed_at_ = -1;
       last_at_ = -1;
       head_for(strategy_->next(target_, p, knowledge_), cmd, -1);
       return;
@@ -356,7 +361,7 @@ class Team : public Plugin {
   std::map<std::string, Mate> mates_;
   std::vector<std::string> team_;
   bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false;
-  SimTime hold_until_ = 0;
+  SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;
   std::vector<char> inside_;

@@ -16,12 +16,16 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "plugins/builtin.h"
 #include "tools/vigil/commands.h"
 #include "world/navigation_eval.h"
+#include "planning/patrol/idleness.h"
+#include "planning/patrol/patrol_graph.h"
+#include "planning/patrol/tour.h"
 #include "vision/event.h"
 #include "vision/event_eval.h"
 #include "vision/map_track_eval.h"
@@ -141,7 +145,8 @@ Status write_text_file(const fs::path& path, const std::string& text) {
 }
 
 struct Opts {
-  std::string run_dir, tracks, scenario, camera, mot_gt, mot_test;
+  std::string run_dir, tracks, scenario, camera, mot_gt, mot_test, graph;
+  double visit_radius = 0.5;
   double match_distance = 0.5;
   std::optional<double> max_range, camera_rate;
   std::vector<double> camera_xy;
@@ -169,6 +174,76 @@ void run_mot_challenge(const Opts& o) {
   auto m = vision::evaluate_mot_challenge(*gt, *test, params);
   if (!m) throw Exit{report(m.error())};
   std::printf("%s\n", motmetrics_json(*m).dump(2).c_str());
+}
+
+// Patrol idleness of the run's robots on a patrol graph, from their true positions in the
+// ground truth: eval.json "patrol", and a line. The reference is the graph's shortest closed
+// walk over (robots x cruise speed), the speed from robots.jsonl (1 m/s without it).
+void evaluate_run_patrol(const fs::path& gt_path, const fs::path& robots_path, const fs::path& graph_path,
+                         double radius, nlohmann::ordered_json* eval) {
+  auto graph = planning::patrol::PatrolGraph::read(graph_path);
+  if (!graph) throw Exit{report(graph.error())};
+  std::vector<Vec2> v;
+  for (const auto& x : graph->vertices()) v.push_back(x.position);
+  planning::patrol::VisitDetector det(v, radius);
+  planning::patrol::InterferenceCounter interf(2.0);
+  std::ifstream in(gt_path);
+  std::string line;
+  int lineno = 0;
+  double end = 0;
+  std::set<std::string> robots;
+  while (std::getline(in, line)) {
+    ++lineno;
+    auto j = nlohmann::json::parse(line, nullptr, false);
+    if (j.is_discarded()) throw Exit{report(bad_input(gt_path.string(), lineno, "", "not JSON"))};
+    if (j.value("type", "") != "tick") continue;
+    const double t = j.value("t_ns", int64_t{0}) * 1e-9;
+    end = t;
+    std::vector<std::pair<std::string, Vec2>> at;
+    for (const auto& e : j["entities"]) {
+      if (e.value("kind", "") != "robot") continue;
+      const std::string id = e.value("id", "");
+      const Vec2 p{e.value("x", 0.0), e.value("y", 0.0)};
+      det.observe(id, t, p);
+      at.push_back({id, p});
+      robots.insert(id);
+    }
+    interf.observe(at);
+  }
+  double speed = 0;
+  if (fs::exists(robots_path)) {
+    std::ifstream rin(robots_path);
+    while (std::getline(rin, line)) {
+      auto j = nlohmann::json::parse(line, nullptr, false);
+      if (!j.is_discarded()) speed = std::max(speed, j.value("cruise_speed", 0.0));
+    }
+  }
+  if (speed <= 0) speed = 1.0;
+  const auto st = planning::patrol::idleness(det.visits(), static_cast<int>(graph->size()), end);
+  planning::patrol::GraphDistances d(*graph);
+  const double tour = planning::patrol::closed_walk(*graph, d).length;
+  const double ref = robots.empty() ? 0.0 : tour / (static_cast<double>(robots.size()) * speed);
+  nlohmann::ordered_json p;
+  p["graph"] = graph_path.string();
+  p["vertices"] = graph->size();
+  p["visit_radius_m"] = radius;
+  p["robots"] = robots.size();
+  p["tour_m"] = tour;
+  p["reference_s"] = ref;
+  p["average_s"] = st.average;
+  p["worst_s"] = st.worst;
+  p["stddev_s"] = st.stddev;
+  p["median_s"] = st.median;
+  p["intervals"] = st.intervals;
+  p["visits"] = st.visits;
+  p["unvisited"] = st.unvisited;
+  p["longest_open_s"] = st.longest_open;
+  p["interferences"] = interf.count();
+  (*eval)["patrol"] = p;
+  std::printf("patrol (%s, %zu vertices, %zu robots, visits within %.2f m): average idleness %.1f s, worst %.1f s, "
+              "std %.1f s over %d intervals; reference %.1f s (walk %.1f m / %zu / %.2f m/s); %d unvisited; %d interferences\n",
+              graph_path.filename().string().c_str(), graph->size(), robots.size(), radius, st.average, st.worst, st.stddev,
+              st.intervals, ref, tour, robots.size(), speed, st.unvisited, interf.count());
 }
 
 // Localisation error, contacts and goals of the run's robots: eval.json "navigation", and a table.
@@ -307,8 +382,23 @@ void run_map_eval(const Opts& o) {
     if (!(*o.camera_rate > 0)) throw Exit{report(bad_input("", 0, "--camera-rate", "must be positive"))};
     eo.camera_period_s = 1.0 / *o.camera_rate;
   }
+  // The patrol graph: --graph, or the first team robot's in the scenario.
+  fs::path patrol_graph = o.graph;
+  if (patrol_graph.empty() && !o.scenario.empty()) {
+    ScenarioContext ctx;
+    auto sc = load_scenario(o.scenario, ctx);
+    if (!sc) throw Exit{report(sc.error())};
+    for (const RobotSpec& r : sc->robots) {
+      auto it = r.params.find("graph");
+      if (r.controller == "team" && it != r.params.end() && std::holds_alternative<std::string>(it->second.value)) {
+        patrol_graph = std::get<std::string>(it->second.value);
+        if (patrol_graph.is_relative()) patrol_graph = fs::path(o.scenario).parent_path() / patrol_graph;
+        break;
+      }
+    }
+  }
   // The camera's position (and rate) from the scenario.
-  if (!o.scenario.empty()) {
+  if (!o.scenario.empty() && (!o.camera.empty() || o.in_view || o.max_range)) {
     if (o.camera.empty()) throw Exit{report(bad_input("", 0, "--scenario", "needs --camera ID to pick the camera"))};
     ScenarioContext ctx;  // plugin names are not checked: only the camera's pose is needed
     auto sc = load_scenario(o.scenario, ctx);
@@ -419,6 +509,7 @@ void run_map_eval(const Opts& o) {
 }
   if (have_events) evaluate_run_events(gt_path, events_path, &*eval);
   if (have_robots) evaluate_run_navigation(gt_path, robots_path, &*eval);
+  if (!patrol_graph.empty()) evaluate_run_patrol(gt_path, robots_path, patrol_graph, o.visit_radius, &*eval);
   if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
   std::printf("wrote %s\n", eval_path.string().c_str());
 }
@@ -434,7 +525,9 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--camera", o->camera, "evaluate only this camera's tracks");
   cmd->add_option("--max-range", o->max_range, "only ground truth and tracks within this many metres of the camera");
   cmd->add_option("--camera-xy", o->camera_xy, "camera position X,Y in the map frame (for --max-range)")->delimiter(',');
-  cmd->add_option("--scenario", o->scenario, "scenario file to read the --camera's position and rate from");
+  cmd->add_option("--scenario", o->scenario, "scenario file to read the --camera's position and rate from (and the team robots' patrol graph)");
+  cmd->add_option("--graph", o->graph, "patrol graph to measure idleness on (default: the --scenario team robots' graph)");
+  cmd->add_option("--visit-radius", o->visit_radius, "patrol: a vertex is visited within this distance (m)")->capture_default_str();
   cmd->add_option("--camera-rate", o->camera_rate, "camera frame rate in Hz (default: from --scenario, else from the track stamps)");
   cmd->add_option("--classes", o->classes, "only these classes (person, bag, robot, unknown)")->delimiter(',');
   cmd->add_flag("--in-view", o->in_view, "only ground truth and tracks inside the --scenario camera's horizontal field of view, and ground truth not behind a wall of its map");
