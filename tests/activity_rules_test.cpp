@@ -41,6 +41,7 @@ struct Actor {
   Path path;
   std::function<bool(double)> seen = [](double) { return true; };  // the tracker's misses
   std::function<int(double)> track_id = nullptr;                    // default: id
+  std::function<bool(double)> measured = [](double) { return true; };  // false: the tracker's prediction
 };
 
 constexpr double kHz = 15;
@@ -72,6 +73,7 @@ std::vector<Event> run(ActivityRules& rules, double duration, const std::vector<
       tr.height = a.cls == TrackClass::kPerson ? 1.75 : 0.5;
       tr.width = a.cls == TrackClass::kPerson ? 0.5 : 0.4;
       tr.confidence = 0.9;
+      tr.measured = a.measured(t);
       tracks.push_back(tr);
     }
     auto out = robots ? rules.update(stamp, tracks, robots(t)) : rules.update(stamp, tracks);
@@ -180,6 +182,34 @@ TEST(ActivityRules, AnotherPersonWalkingOffWithTheBagIsBagTaken) {
   // after setting off at 21.5 s.
   EXPECT_GT(seconds(e.stamp_ns), 21.5);
   EXPECT_LT(seconds(e.stamp_ns), 23.0);
+}
+
+// The plan-view tracker reports a bag track for a few frames after its blob has gone (coasting,
+// report_missed = 4 at 15 Hz), at its old place. A taker who walks off at once is past
+// pickup_distance by the last of those reports: who stood by the bag is judged on the frames it
+// was measured on (dis_bag_taken with SGBM: B at 0.89 m on the last measured frame, 1.21 m on the
+// last coasting report, and bag_taken was missed).
+TEST(ActivityRules, TakerIsWhoStoodByTheBagWhenItWasLastMeasuredNotWhenItWasPredicted) {
+  // Person 2 stands 0.9 m from the bag from 18 to 21 s, picks it up at 21 s and walks straight
+  // off at 1.3 m/s; the bag's track is measured until 21 s and predicted for 4 more frames.
+  Actor taker{2, TrackClass::kPerson, Path{{{14, -3, -0.45}, {18, 4.1, -0.45}, {21, 4.1, -0.45}, {30, 4.1 - 1.3 * 9, -0.45}}}};
+  Actor bag = bag_at_5(4.5, 21 + 4 / kHz + 1e-6);
+  bag.measured = [](double t) { return t <= 21 + 1e-6; };
+  auto rules = make_rules({}, corridor_camera());
+  const auto events = run(rules, 30, {owner_walks_off(), bag, taker});
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[1].kind, EventKind::kBagTaken);
+  EXPECT_EQ(events[1].people, std::vector<int>{2});
+  EXPECT_GT(seconds(events[1].stamp_ns), 21.5);
+  EXPECT_LT(seconds(events[1].stamp_ns), 22.5);
+  // The same reports taken as sightings: the taker is 0.9 + 1.3 * 4/15 = 1.25 m from the bag on
+  // the last one, nobody is near it when it goes, and the theft is missed.
+  bag.measured = [](double) { return true; };
+  auto naive = make_rules({}, corridor_camera());
+  const auto missed = run(naive, 30, {owner_walks_off(), bag, taker});
+  ASSERT_EQ(missed.size(), 1u);
+  EXPECT_EQ(missed[0].kind, EventKind::kLeftBag);
 }
 
 TEST(ActivityRules, HandOverWithTheOwnerBesideIsAnExchange) {

@@ -53,6 +53,18 @@ TEST(TrackIo, WriterPrintsFixedDecimalsInAFixedKeyOrder) {
   ASSERT_TRUE(back) << back.error().str();
   EXPECT_EQ(back->camera, odd.camera);
   EXPECT_EQ(back->cls, TrackClass::kUnknown);
+  EXPECT_TRUE(back->measured);
+  // A prediction (coasting or occluded) says so after the numbers; a measured track writes nothing.
+  Track predicted = sample();
+  predicted.measured = false;
+  const std::string pl = format_track_json(predicted);
+  EXPECT_EQ(pl.substr(pl.size() - 37), "\"confidence\":0.9000,\"measured\":false}") << pl;
+  auto pb = parse_track_json(pl, "x", 1);
+  ASSERT_TRUE(pb) << pb.error().str();
+  EXPECT_FALSE(pb->measured);
+  auto bad = parse_track_json("{\"t_ns\":5,\"camera\":\"c\",\"id\":1,\"class\":\"bag\",\"x\":1,\"y\":2,\"measured\":0}", "f", 7);
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().key, "measured");
 }
 
 TEST(TrackIo, RoundTripsThroughAFile) {

@@ -186,17 +186,22 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
     o.last_seen = now;
     o.unseen_ns = 0;
     o.taker = -1;  // seen again: whoever was near did not take it
-    o.nearest = -1;
-    double nd = p_.pickup_distance;
-    for (const auto& [id, p] : people_) {
-      if (p.last_seen != now) continue;
-      const double d = dist(p.x, p.y, o.x, o.y);
-      if (d <= nd) nd = d, o.nearest = id, o.nearest_x = p.x, o.nearest_y = p.y;
-    }
-    if (!o.confirmed) {
-      // Owner candidate: the nearest person while the model forms.
+    // Who stands by it is judged on frames the bag was measured on. A tracker's prediction (a bag
+    // track coasting a few frames after its blob went) keeps the model, but by then whoever took
+    // it has walked off with it: the nearest person is the one there when it was last measured.
+    if (t->measured) {
+      o.nearest = -1;
+      double nd = p_.pickup_distance;
       for (const auto& [id, p] : people_) {
         if (p.last_seen != now) continue;
+        const double d = dist(p.x, p.y, o.x, o.y);
+        if (d <= nd) nd = d, o.nearest = id, o.nearest_x = p.x, o.nearest_y = p.y;
+      }
+    }
+    if (!o.confirmed) {
+      // Owner candidate: the nearest person while the model forms (on measured frames too).
+      for (const auto& [id, p] : people_) {
+        if (p.last_seen != now || !t->measured) continue;
         const double d = dist(p.x, p.y, o.x, o.y);
         if (d <= p_.owner_distance && d < o.owner_candidate_distance) {
           o.owner_candidate_distance = d;

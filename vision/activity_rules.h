@@ -15,7 +15,8 @@
 //    If the owner then takes the bag back, a cancellation (same id, cancelled = true) follows.
 //  - bag taken / exchange: the bag goes (its place is in view, not hidden behind a person, and
 //    has no bag for object_gone_time), the nearest person within pickup_distance when it was
-//    last seen is the taker, and the taker then moves away (take_distance from the place and
+//    last measured (Track::measured; a tracker's coasting prediction of a bag whose blob has gone
+//    says nothing about who stood by it) is the taker, and the taker then moves away (take_distance from the place and
 //    half that from where they stood): the owner taking it back is no event; anybody
 //    else raises "exchange" when the owner was within exchange_distance of them when the bag
 //    went, else "bag taken" (also for bags present at the start or left by another).

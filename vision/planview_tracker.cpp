@@ -957,6 +957,7 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
     r.height = t.x(4);
     r.width = t.x(5);
     r.confidence = t.confidence;
+    r.measured = !t.missed;
     out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });

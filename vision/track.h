@@ -27,6 +27,8 @@ struct Track {
   double height = 0;          // m, top of the object above the floor
   double width = 0;           // m, footprint extent (largest side)
   double confidence = 0;      // 0..1
+  bool measured = true;       // false: not seen on this frame; position and size are the tracker's
+                              // prediction (a track coasting after a miss, or held while occluded)
 };
 
 }  // namespace vigil::vision

@@ -53,6 +53,7 @@ std::string format_track_json(const Track& t) {
   std::string s = "{\"t_ns\":" + std::to_string(t.stamp_ns) + ",\"camera\":" + json_string(t.camera) +
                   ",\"id\":" + std::to_string(t.id) + ",\"class\":\"" + std::string(to_string(t.cls)) + "\"";
   for (const auto& f : kNumbers) s += std::string(",\"") + f.key + "\":" + num4(t.*(f.member));
+  if (!t.measured) s += ",\"measured\":false";  // written only for predictions (absent: measured)
   s += "}";
   return s;
 }
@@ -101,6 +102,10 @@ Result<Track> parse_track_json(std::string_view text, const std::string& file, i
     }
     if (!it->is_number()) return bad_input(file, line, f.key, std::string("expected a number, got ") + type_name(*it));
     t.*(f.member) = it->get<double>();
+  }
+  if (const auto it = j.find("measured"); it != j.end()) {
+    if (!it->is_boolean()) return bad_input(file, line, "measured", std::string("expected a boolean, got ") + type_name(*it));
+    t.measured = it->get<bool>();
   }
   return t;
 }
