@@ -79,6 +79,9 @@ Status validate(const MclParams& p) {
   if (auto s = check(p.recovery_max_share, 0, 1, "recovery_max_share"); !s) return s;
   if (auto s = check(p.recovery_drop, 0, 10, "recovery_drop"); !s) return s;
   if (auto s = check(p.occlusion_range, 0, 50, "occlusion_range"); !s) return s;
+  if (auto s = check(p.beam_skip_distance, 0, 10, "beam_skip_distance"); !s) return s;
+  if (auto s = check(p.beam_skip_threshold, 0, 1, "beam_skip_threshold"); !s) return s;
+  if (auto s = check(p.beam_skip_error_threshold, 0, 1, "beam_skip_error_threshold"); !s) return s;
   if (auto s = check_count(p.recovery_persistence, 1, 1000, "recovery_persistence"); !s) return s;
   if (auto s = check_count(p.injection_candidates, 1, 10000, "injection_candidates"); !s) return s;
   if (auto s = check(p.injection_margin, 0, 10, "injection_margin"); !s) return s;
@@ -464,11 +467,54 @@ double MonteCarloLocalization::fit_without_occlusions(const Pose2& q, int* kept)
   return n ? sum / n : kNegInf;
 }
 
+// Beam skipping (nav2 AMCL's do_beamskip): a beam whose endpoint lies within
+// beam_skip_distance of an obstacle for fewer than beam_skip_threshold of the particles is
+// something the map does not hold (a robot, a person) and is left out of this update, unless
+// more than beam_skip_error_threshold of the beams would go (then the filter, not the world, is
+// probably wrong, and every beam is used).
+void MonteCarloLocalization::skip_beams() {
+  const size_t np = particles_.size();
+  const size_t nb = beam_ex_.size();
+  if (np == 0 || nb == 0) return;
+  const MclMap& map = *map_;
+  const LikelihoodField& f = map.field();
+  const Vec2 o = f.origin();
+  const double inv_res = 1.0 / f.resolution();
+  const int w = map.width(), h = map.height();
+  std::vector<int> agree(nb, 0);
+  for (size_t j = 0; j < np; ++j) {
+    const Pose2& q = particles_[j].pose;
+    const double c = std::cos(q.yaw), s = std::sin(q.yaw);
+    const double u0 = (q.x - o.x) * inv_res, v0 = (q.y - o.y) * inv_res;
+    for (size_t b = 0; b < nb; ++b) {
+      const double u = u0 + c * beam_ex_[b] - s * beam_ey_[b], v = v0 + s * beam_ex_[b] + c * beam_ey_[b];
+      if (u >= 0 && v >= 0 && u < w && v < h && f.distance(static_cast<int>(u), static_cast<int>(v)) < params_.beam_skip_distance) {
+        ++agree[b];
+      }
+    }
+  }
+  std::vector<float> kx, ky;
+  for (size_t b = 0; b < nb; ++b) {
+    if (agree[b] >= params_.beam_skip_threshold * static_cast<double>(np)) {
+      kx.push_back(beam_ex_[b]);
+      ky.push_back(beam_ey_[b]);
+    }
+  }
+  stats_.last_skipped = static_cast<int>(nb - kx.size());
+  if (kx.empty() || static_cast<double>(nb - kx.size()) > params_.beam_skip_error_threshold * static_cast<double>(nb)) {
+    stats_.last_skipped = 0;
+    return;
+  }
+  beam_ex_.swap(kx);
+  beam_ey_.swap(ky);
+}
+
 // The likelihood-field measurement update: per particle the tempered scan log-likelihood;
 // then the augmented-MCL averages (table 8.3) over the held particles' per-beam means.
 void MonteCarloLocalization::measure() {
   const size_t np = particles_.size();
   ll_.resize(np);
+  if (params_.beam_skip) skip_beams();
   score(&particles_[0].pose, np, sizeof(Particle), ll_.data());
   const double gamma_max = params_.likelihood_exponent;
   const bool recovery = params_.recovery_alpha_fast > 0;

@@ -86,6 +86,12 @@ struct MclParams {
   // the gate. Off (0) by default: a filter that may have converged on a wrong but similar place
   // needs those beams to leave it (global localisation); on for tracking among moving robots.
   double occlusion_range = 0.0;        // m                                    "0.:0.5:50."
+  // Beam skipping (nav2 AMCL do_beamskip, its defaults): beams most particles cannot explain
+  // are left out of an update. Off by default (as AMCL); on for robots among robots.
+  bool beam_skip = false;
+  double beam_skip_distance = 0.5;         // m                                "0.:0.05:10."
+  double beam_skip_threshold = 0.3;        // share of particles that must agree "0.:0.05:1."
+  double beam_skip_error_threshold = 0.9;  // more beams skipped: use them all   "0.:0.05:1."
   // Sensor-guided sampling (as Thrun et al.'s mixture MCL proposes): a random particle is the
   // pick, by the current scan's likelihood, among `injection_candidates` uniform free poses per
   // particle needed; global initialisation scores `global_candidates` uniform poses with the
@@ -173,6 +179,7 @@ struct MclStats {
   int64_t resamplings = 0;
   int64_t injected = 0;          // random particles injected, in total
   int last_injected = 0;         // in the last resampling
+  int last_skipped = 0;          // beams beam skipping left out of the last update
   double w_slow = 0, w_fast = 0; // log of the long- and short-term likelihood averages
   double last_exponent = 0;      // the likelihood exponent the last scan was weighted with
 };
@@ -216,6 +223,7 @@ class MonteCarloLocalization {
   void score(const Pose2* poses, size_t n, size_t stride, float* out) const;
   void measure();
   double fit_without_occlusions(const Pose2& q, int* kept) const;
+  void skip_beams();
   void global_from_scan();
   int draw_guided(int count, Particle* out);
   void resample();

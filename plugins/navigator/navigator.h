@@ -122,6 +122,7 @@ class Navigator : public Plugin {
         {"roadmap_seed", ParamType::kInteger, 1.0, 0, 1e9, "seed of the shared roadmap"},
         {"report_rate", ParamType::kNumber, 2.0, 0.1, 100.0, "state reports per second (events are reported at once)"},
         {"occlusion_range", ParamType::kNumber, 0.0, 0.0, 50.0, "MCL: short beams within this range (a body in front) are not evidence of a wrong pose (m; 0 = off)"},
+        {"beam_skip", ParamType::kBool, false, 0, 0, "MCL: leave out beams most particles cannot explain (nav2 AMCL do_beamskip)"},
     };
   }
 
@@ -200,6 +201,7 @@ class Navigator : public Plugin {
       mp.particles = global_start_ ? p.integer("global_particles") : p.integer("particles");
       mp.max_beams = p.integer("laser_beams");
       mp.occlusion_range = p.number("occlusion_range");
+      mp.beam_skip = p.boolean("beam_skip");
       mp.laser_pose = ctx.laser_mount;
       if (ctx.laser_range_max > 0) mp.field.max_range = ctx.laser_range_max;
       auto shared = nav_detail::shared_mcl_map(ctx.map, mp.field);
@@ -285,6 +287,13 @@ class Navigator : public Plugin {
     path_.clear();
     patrol_.clear();
     if (mode_ != "localizing") mode_ = "idle";
+  }
+  // For `seconds` from now, pass on the right: the pursuit point is shifted `offset` to the
+  // right of the path where the inflated map allows, and what stands on the path ahead (the
+  // robot being passed) no longer triggers a replan round it. The safety stop still holds.
+  void keep_right(double offset, double seconds) {
+    keep_right_ = offset;
+    keep_right_until_ = now_ + from_seconds(seconds);
   }
   Pose2 pose() const { return pose_; }
   const std::string& mode() const { return mode_; }
@@ -483,24 +492,26 @@ class Navigator : public Plugin {
     }
     // The periodic replan refreshes the route from where the robot is; it runs the motion level
     // (RRTConnect) only when what the laser sees blocks the next metres.
-    if (path_.empty()) replan(me, true);
-    else if (now_ - last_plan_ >= replan_period_) replan(me, path_blocked(obs, 6.0));
+    const bool passing = keep_right_ > 0 && now_ < keep_right_until_;
+    if (path_.empty()) replan(me, !passing);
+    else if (now_ - last_plan_ >= replan_period_) replan(me, !passing && path_blocked(obs, 6.0));
     if (path_.empty()) {
       mode_ = "waiting";
       return;
     }
-    if (path_blocked(obs, 3.0)) {
+    if (!passing && path_blocked(obs, 3.0)) {
       if (blocked_since_ < 0) blocked_since_ = now_;
       // Something stands on the path: wait a moment (people pass), then go round it.
       if (now_ - blocked_since_ >= blocked_wait_ && now_ - last_plan_ >= from_seconds(1.0)) replan(me, true);
     } else {
       blocked_since_ = -1;
     }
-    mode_ = avoiding_ ? "avoiding" : "driving";
+    mode_ = passing ? "passing" : avoiding_ ? "avoiding" : "driving";
     // Pure pursuit: the carrot is the first path point at least `lookahead` away, past the
     // closest segment.
     while (path_index_ + 1 < path_.size() && (path_[path_index_ + 1] - pos).norm() < lookahead_) ++path_index_;
     Vec2 carrot = path_.back();
+    Vec2 carrot_dir{0, 0};
     for (size_t i = path_index_ + 1; i < path_.size(); ++i) {
       if ((path_[i] - pos).norm() >= lookahead_) {
         // Point on segment (i-1, i) at the lookahead distance.
@@ -512,7 +523,26 @@ class Navigator : public Plugin {
         double t = 1.0;
         if (A > 0 && disc >= 0) t = std::clamp((-B + std::sqrt(disc)) / (2 * A), 0.0, 1.0);
         carrot = a + d * t;
+        carrot_dir = d;
         break;
+      }
+    }
+    if (passing) {
+      // To the right of the path's own direction there (a line parallel to the path), so the
+      // shift does not turn with the robot.
+      const Vec2 d = carrot_dir.norm() > 1e-9 ? carrot_dir : carrot - pos;
+      const double n = d.norm();
+      if (n > 1e-6) {
+        const Vec2 right{d.y / n, -d.x / n};
+        for (double off : {keep_right_, 0.5 * keep_right_}) {
+          const Vec2 c = carrot + right * off;
+          // 10 cm more than the inflation on the wall's side, so driving along the shifted
+          // line leaves the swept corridor clear of the wall.
+          if (planner_->inflated().is_free(c + right * 0.1) && planner_->inflated().segment_free(pos, c)) {
+            carrot = c;
+            break;
+          }
+        }
       }
     }
     const Vec2 to = carrot - pos;
@@ -539,8 +569,9 @@ class Navigator : public Plugin {
     *v *= factor;
     if (factor == 0.0) {
       mode_ = "waiting";
-      // Turning in place is still allowed if the laser says the sides are clear.
-      if (std::abs(err) <= 0.7) *w = 0;
+      // Turning in place towards the path is still allowed: the footprint is a disc, turning
+      // sweeps nothing new (and it lines the robot up with a path that runs beside a wall).
+      if (std::abs(err) <= 0.05) *w = 0;
     }
   }
 
@@ -548,7 +579,9 @@ class Navigator : public Plugin {
   double clear_ahead(const RobotState& me) const {
     if (!me.scan) return 1e9;
     const LaserScan& s = *me.scan;
-    const double half_width = ctx_.robot_radius + 0.05;
+    // The body's own width and 2 cm: paths keep inflation_padding (5 cm) more from walls, so a
+    // wall beside a path that hugs it is not taken for something in the way.
+    const double half_width = ctx_.robot_radius + 0.02;
     double best = 1e9;
     for (size_t i = 0; i < s.ranges.size(); ++i) {
       const double r = s.ranges[i];
@@ -621,6 +654,8 @@ class Navigator : public Plugin {
   bool loop_ = true;
   double speed_ = 0.4, tolerance_ = 0.3, lookahead_ = 0.6, gain_ = 2.0, safety_ = 0.45, slow_ = 1.2;
   double personal_space_ = 0.0;
+  double keep_right_ = 0.0;
+  SimTime keep_right_until_ = -1;
   SimTime replan_period_ = 0, blocked_wait_ = 0, stuck_time_ = 0, report_every_ = 0;
   int max_recoveries_ = 3;
   bool use_mcl_ = true, global_start_ = false;

@@ -77,6 +77,7 @@ class Team : public Plugin {
     // front of the laser for a sign of being lost.
     for (ParamSpec& s : p) {
       if (s.name == "occlusion_range") s.default_value = 3.0;
+      if (s.name == "beam_skip") s.default_value = true;
     }
     const std::vector<ParamSpec> own = {
         {"graph", ParamType::kString, std::string(""), 0, 0, "patrol graph file (patrolling_sim format), relative to the scenario"},
@@ -84,8 +85,11 @@ class Team : public Plugin {
         {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
-        {"hello_period", ParamType::kNumber, 0.5, 0.05, 60.0, "announce itself to the team this often (s)"},
+        {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
+        {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
+        {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
+        {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
     };
     p.insert(p.end(), own.begin(), own.end());
     return p;
@@ -114,6 +118,9 @@ class Team : public Plugin {
     discovery_ = from_seconds(p.number("discovery_time"));
     hello_every_ = from_seconds(p.number("hello_period"));
     member_timeout_ = from_seconds(p.number("member_timeout"));
+    pass_offset_ = p.number("pass_offset");
+    spacing_hold_ = p.boolean("spacing_hold");
+    pass_distance_ = p.number("pass_distance");
     return Status::Ok();
   }
 
@@ -156,10 +163,12 @@ class Team : public Plugin {
       h.kind = "hello";
       h.position = nav_.pose().position();
       h.value = patrolling() ? 1 : 0;
+      h.value2 = nav_.pose().yaw;
       cmd.send(h);
       next_hello_ = now_ + hello_every_;
     }
     if (nav_.is_localized()) {
+      pass_oncoming();
       note_visits(cmd);
       if (patrolling()) {
         update_team();
@@ -193,6 +202,8 @@ class Team : public Plugin {
       mate.where = m.position;
       mate.heard = now_;
       mate.patrolling = m.value > 0.5;
+      mate.yaw = m.value2;
+      mate.pose_time = m.sent;
     } else if (m.kind == "visit") {
       knowledge_.visited(m.vertex, m.value);
       Mate& mate = mates_[m.from];
@@ -236,6 +247,37 @@ class Team : public Plugin {
     formed_ = true;
     holding_ = false;
     target_ = -1;
+  }
+
+  // A mate within 3 m: a robot standing in a corridor would be in its way.
+  bool mate_close() const {
+    const Vec2 me = nav_.pose().position();
+    for (const auto& [id, m] : mates_) {
+      if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(1.5) && (m.where - me).norm() < 3.0) return true;
+    }
+    return false;
+  }
+
+  // A mate coming the other way within `pass_distance`, in front of me and I in front of it:
+  // both keep right (traffic rule: every robot applies it, so no one has to decide who yields).
+  void pass_oncoming() {
+    oncoming_ = false;
+    if (pass_offset_ <= 0) return;
+    const Pose2 me = nav_.pose();
+    const Vec2 h{std::cos(me.yaw), std::sin(me.yaw)};
+    for (const auto& [id, m] : mates_) {
+      if (m.pose_time < 0 || now_ - m.pose_time > from_seconds(1.5)) continue;
+      const Vec2 r = m.where - me.position();
+      const double d = r.norm();
+      if (d > pass_distance_ || d < 1e-6) continue;
+      const Vec2 mh{std::cos(m.yaw), std::sin(m.yaw)};
+      const bool facing = h.dot(mh) < -0.5 && h.dot(r) > 0.3 * d && mh.dot(r * -1.0) > 0.3 * d;
+      if (facing) {
+        nav_.keep_right(pass_offset_, 1.5);
+        oncoming_ = true;
+        return;
+      }
+    }
   }
 
   // Vertices passed (entered within the visit radius of the estimate), told to the team.
@@ -290,7 +332,8 @@ class Team : public Plugin {
     }
     if (holding_) {
       // Waiting at a vertex for the spacing to even out (the strategy says how long).
-      if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_) return;
+      // A mate coming the other way would have to squeeze past: go on instead.
+      if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_ && !mate_close()) return;
       holding_ = false;
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       eta_ = knowledge_.now + setup_->travel(last_at_, target_) / setup_->speed;
@@ -300,8 +343,8 @@ class Team : public Plugin {
     if (reached) {
       last_at_ = target_;
       head_for(strategy_->next(target_, p, knowledge_), cmd, last_at_);
-      const double h = strategy_->hold(knowledge_);
-      if (h > 0.25) {
+      const double h = spacing_hold_ ? strategy_->hold(knowledge_) : 0.0;
+      if (h > 0.25 && !mate_close()) {
         holding_ = true;
         hold_until_ = now_ + from_seconds(h);
         nav_.halt();
@@ -345,6 +388,8 @@ class Team : public Plugin {
     Vec2 where;
     SimTime heard = 0;
     bool patrolling = true;
+    double yaw = 0;
+    SimTime pose_time = -1;  // when `where` and `yaw` were measured (hello only)
   };
 
   Navigator nav_;
@@ -353,14 +398,15 @@ class Team : public Plugin {
   std::string strategy_name_;
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
-  double visit_radius_ = 0.5;
+  double visit_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
   SimTime now_ = 0, next_hello_ = 0;
   PatrolKnowledge knowledge_;
   std::map<std::string, Mate> mates_;
   std::vector<std::string> team_;
-  bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false;
+  bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false, oncoming_ = false;
+  bool spacing_hold_ = true;
   SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;

@@ -33,6 +33,7 @@ struct PatrolBenchOptions {
   double seconds = 1800, speed = 1.0, physics_hz = 10, visit_radius = 0.5;
   uint64_t seed = 1;
   std::string json;
+  std::vector<std::string> set;  // extra team parameters, name=value
 };
 
 struct MapCase {
@@ -69,6 +70,8 @@ void add_bench_patrol_command(CLI::App* bench) {
   cmd->add_option("--visit-radius", o->visit_radius, "a vertex is visited within this distance (m)")->capture_default_str();
   cmd->add_option("--seed", o->seed, "seed")->capture_default_str();
   cmd->add_option("--json", o->json, "also write the results as JSON to this file");
+  cmd->add_option("--set", o->set, "extra team controller parameters NAME=VALUE (numbers or true/false), e.g. spacing_hold=false")
+      ->delimiter(',');
   cmd->callback([o] {
     std::vector<std::string> names = o->maps;
     if (names.empty()) {
@@ -114,6 +117,18 @@ void add_bench_patrol_command(CLI::App* bench) {
             r.params["strategy"] = {strategy, 0};
             r.params["speed"] = {o->speed, 0};
             r.params["visit_radius"] = {o->visit_radius, 0};
+            for (const std::string& kv : o->set) {
+              const auto eq = kv.find('=');
+              if (eq == std::string::npos) throw Exit{report(bad_input("", 0, "--set", "'" + kv + "' is not NAME=VALUE"))};
+              const std::string name = kv.substr(0, eq), value = kv.substr(eq + 1);
+              if (value == "true" || value == "false") r.params[name] = {value == "true", 0};
+              else {
+                char* end = nullptr;
+                const double x = std::strtod(value.c_str(), &end);
+                if (end != value.c_str() && *end == '\0') r.params[name] = {x, 0};
+                else r.params[name] = {value, 0};
+              }
+            }
             r.max_speed = o->speed;
             r.ranger.enabled = true;
             r.ranger.samples = 271;
