@@ -2,12 +2,14 @@
 // controller (plugins/team) patrolling the DIS graph with the real navigator.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <set>
 
 #include "planning/patrol/idleness.h"
 #include "planning/patrol/patrol_graph.h"
 #include "plugins/builtin.h"
+#include "plugins/dds_bridge/team_transport.h"
 #include "tests/test_util.h"
 #include "world/runner.h"
 #include "world/scenario.h"
@@ -157,7 +159,8 @@ struct TeamRun {
   std::vector<planning::patrol::Visit> visits;
 };
 
-TeamRun run_team(const std::string& strategy, double duration, const std::string& name, TeamBusOptions bus = {}) {
+TeamRun run_team(const std::string& strategy, double duration, const std::string& name, TeamBusOptions bus = {},
+                 bool over_dds = false) {
   TeamRun r;
   auto sc = parse_scenario(team_scenario(strategy, duration), test::source_dir() / "scenarios" / "inline_team.yaml");
   EXPECT_TRUE(sc.ok()) << sc.error().str();
@@ -184,7 +187,19 @@ TeamRun run_team(const std::string& strategy, double duration, const std::string
   ro.video = false;
   ro.team_bus = bus;
   ro.observers.push_back(&watch);
+  std::unique_ptr<dds::DdsTeamBus> dds_bus;
+  if (over_dds) {
+    auto b = dds::DdsTeamBus::create({"robot1", "robot2"}, {});
+    EXPECT_TRUE(b.ok()) << b.error().str();
+    if (!b.ok()) return r;
+    dds_bus = std::move(*b);
+    ro.exchange_messages = [&](World& w) { return dds_bus->exchange(w); };
+  }
   auto s = run_scenario(*sc, ro);
+  if (dds_bus) {
+    EXPECT_GT(dds_bus->written(), 100u);
+    EXPECT_EQ(dds_bus->delivered(), dds_bus->written());  // two robots: each message has one recipient
+  }
   EXPECT_TRUE(s.ok()) << s.error().str();
   if (s.ok()) r.summary = *s;
   r.visits = det.visits();
@@ -236,6 +251,37 @@ TEST(Team, PartitionSplitsTheGraphAndASilentMateSShareIsTakenOver) {
   const std::set<int> later = visited_by(r, "robot2", 70, 420);
   EXPECT_EQ(later.size(), 17u) << "robot2 took over robot1's region";
   fs::remove_all(r.dir);
+}
+
+TEST(Team, OverRealDdsTheRunIsTheSameAsOnTheLocalBus) {
+  TeamRun local = run_team("cyclic", 120, "local"), over = run_team("cyclic", 120, "dds", {}, true);
+  EXPECT_EQ(local.summary.ground_truth_sha256, over.summary.ground_truth_sha256);
+  EXPECT_EQ(sha256_hex(test::slurp(local.dir / "robots.jsonl")), sha256_hex(test::slurp(over.dir / "robots.jsonl")));
+  fs::remove_all(local.dir);
+  fs::remove_all(over.dir);
+}
+
+TEST(Team, MalformedDdsTeamMessagesAreRefusedNamingTheField) {
+  TeamMessage m;
+  m.from = "robot1";
+  m.kind = "visit";
+  m.vertex = 3;
+  m.value = 12.5;
+  dds::TeamMessageOut out;
+  dds::to_message(m, 7, &out);
+  uint64_t n = 0;
+  auto back = dds::from_message(out.msg, &n);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(n, 7u);
+  EXPECT_EQ(back->vertex, 3);
+  EXPECT_DOUBLE_EQ(back->value, 12.5);
+  out.msg.value = std::nan("");
+  EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "value");
+  out.msg.value = 1;
+  out.msg.kind = const_cast<char*>("");
+  EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "kind");
+  out.msg.from = const_cast<char*>("");
+  EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "from");
 }
 
 TEST(Team, BadGraphOrStrategyNamesTheKey) {

@@ -34,6 +34,7 @@ const dds_topic_descriptor_t* descriptor(Topic t) {
     case Topic::kMapEvents: return &vigil_msgs_MapEvent_desc;
     case Topic::kRobotState: return &vigil_msgs_RobotState_desc;
     case Topic::kTaskAssignments: return &vigil_msgs_TaskAssignment_desc;
+    case Topic::kTeam: return &vigil_msgs_TeamMessage_desc;
   }
   return nullptr;
 }
@@ -100,6 +101,7 @@ const char* topic_name(Topic t) {
     case Topic::kMapEvents: return "vigil_events";
     case Topic::kRobotState: return "vigil_robot_state";
     case Topic::kTaskAssignments: return "vigil_task_assignments";
+    case Topic::kTeam: return "vigil_team";
   }
   return "?";
 }

@@ -58,7 +58,7 @@ struct TopicQos {
   int depth = 1000;  // samples kept per instance (history and durability)
 };
 
-enum class Topic { kCameraEvents, kMapEvents, kRobotState, kTaskAssignments };
+enum class Topic { kCameraEvents, kMapEvents, kRobotState, kTaskAssignments, kTeam };
 const char* topic_name(Topic t);  // "vigil_camera_events", ...
 
 // A writer or reader of one topic. Untyped underneath; the typed helpers below convert.

@@ -1,5 +1,6 @@
 // vigil run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--no-video]
 // Writes the ground truth, summary, top-down video and (rendered with OSMesa) each camera's video.
+#include <algorithm>
 #include <unistd.h>
 
 #include <cstdio>
@@ -7,6 +8,7 @@
 
 #include "plugins/builtin.h"
 #include "plugins/dds_bridge/event_relay.h"
+#include "plugins/dds_bridge/team_transport.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
@@ -26,6 +28,7 @@ void add_run_command(CLI::App& app) {
     uint32_t dds_domain = 0;
     std::string sensor;
     std::string dds_config;
+    std::string team_transport = "dds";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a scenario headless and write its outputs");
@@ -40,6 +43,9 @@ void add_run_command(CLI::App& app) {
                   "attach this vision sensor (truth, planview) to every camera that has none in the scenario");
   cmd->add_option("--dds-domain", opts->dds_domain, "DDS domain id for the events (0 to 232)")->capture_default_str();
   cmd->add_option("--dds-config", opts->dds_config, "Cyclone DDS XML configuration (default: loopback only)");
+  cmd->add_option("--team-transport", opts->team_transport,
+                  "how team robots' messages travel: dds (a DDS participant per robot) or local (in-process bus)")
+      ->capture_default_str();
   cmd->callback([opts] {
     PluginRegistry registry;
     register_builtin_plugins(registry);
@@ -95,6 +101,30 @@ void add_run_command(CLI::App& app) {
       ro.observers.push_back(host->get());
     }
     if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
+    // Team messages between the robots' controllers: over DDS (a participant per robot, in
+    // lockstep, so the run is the same as with the local bus), or the in-process bus.
+    std::unique_ptr<dds::DdsTeamBus> team_bus;
+    if (opts->team_transport != "dds" && opts->team_transport != "local") {
+      throw Exit{report(bad_input("", 0, "--team-transport", "must be dds or local, not '" + opts->team_transport + "'"))};
+    }
+    const bool any_team = std::any_of(scenario->robots.begin(), scenario->robots.end(),
+                                      [](const RobotSpec& r) { return r.controller == "team"; });
+    if (opts->team_transport == "dds" && any_team) {
+      dds::DdsTeamBus::Options to;
+      to.domain.domain_id = opts->dds_domain;
+      if (!opts->dds_config.empty()) {
+        auto cfg = dds::read_config(opts->dds_config);
+        if (!cfg) throw Exit{report(cfg.error())};
+        to.domain.config = *cfg;
+      }
+      std::vector<std::string> ids;
+      for (const RobotSpec& r : scenario->robots) ids.push_back(r.id);
+      auto b = dds::DdsTeamBus::create(ids, to);
+      if (!b) throw Exit{report(b.error())};
+      team_bus = std::move(*b);
+      dds::DdsTeamBus* bp = team_bus.get();
+      ro.exchange_messages = [bp](World& w) { return bp->exchange(w); };
+    }
     const bool tty = isatty(STDERR_FILENO);
     int last_decile = -1;
     if (!opts->quiet) {
@@ -117,6 +147,11 @@ void add_run_command(CLI::App& app) {
     std::printf("%s: %.1f s simulated in %.2f s (%.1fx real time), %llu steps, %zu ground-truth events\n",
                 summary->scenario.c_str(), summary->sim_seconds, summary->wall_seconds, summary->real_time_factor,
                 static_cast<unsigned long long>(summary->steps), summary->events);
+    if (team_bus) {
+      std::printf("team messages over DDS: %llu written, %llu delivered, %llu malformed dropped\n",
+                  static_cast<unsigned long long>(team_bus->written()), static_cast<unsigned long long>(team_bus->delivered()),
+                  static_cast<unsigned long long>(team_bus->rejected()));
+    }
     std::printf("ground_truth_sha256 %s\noutputs in %s\n", summary->ground_truth_sha256.c_str(), ro.out_dir.c_str());
   });
 }
