@@ -133,6 +133,7 @@ class Team : public Plugin {
     team_.clear();
     formed_ = false;
     holding_ = false;
+    yielding_ = false;
     failed_at_ = -1;
     target_ = -1;
     last_at_ = -1;
@@ -246,14 +247,28 @@ class Team : public Plugin {
     strategy_->set_team(members, where, me);
     formed_ = true;
     holding_ = false;
+    yielding_ = false;
     target_ = -1;
   }
 
   // A mate within 3 m: a robot standing in a corridor would be in its way.
-  bool mate_close() const {
+  bool mate_close() const { return mate_within(3.0); }
+  bool mate_within(double d) const {
     const Vec2 me = nav_.pose().position();
     for (const auto& [id, m] : mates_) {
-      if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(1.5) && (m.where - me).norm() < 3.0) return true;
+      if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(1.5) && (m.where - me).norm() < d) return true;
+    }
+    return false;
+  }
+  // A mate with precedence (its name sorts first) within 1.6 m in front of me.
+  bool should_yield() const {
+    const Pose2 me = nav_.pose();
+    const Vec2 h{std::cos(me.yaw), std::sin(me.yaw)};
+    for (const auto& [id, m] : mates_) {
+      if (m.pose_time < 0 || now_ - m.pose_time > from_seconds(1.5) || !(id < ctx_.model_id)) continue;
+      const Vec2 r = m.where - me.position();
+      const double d = r.norm();
+      if (d < 1.6 && h.dot(r) > 0.2 * d) return true;
     }
     return false;
   }
@@ -329,6 +344,29 @@ class Team : public Plugin {
       last_at_ = -1;
       head_for(strategy_->next(-1, p, knowledge_), cmd, -1);
       return;
+    }
+    // Face to face with a mate and both stopped: the one whose name sorts later gives way,
+    // backing off to the side, and resumes once the other has gone by.
+    if (yielding_) {
+      const bool there = (yield_spot_ - p).norm() < 0.35 || !nav_.has_goal();
+      if (now_ < yield_until_ && !(there && !mate_within(2.0))) return;
+      yielding_ = false;
+      nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      return;
+    }
+    if (nav_.mode() == "waiting" && should_yield()) {
+      const Pose2 me = nav_.pose();
+      const Vec2 h{std::cos(me.yaw), std::sin(me.yaw)}, right{h.y, -h.x};
+      for (const Vec2 off : {h * -1.2 + right * 0.6, h * -1.2, h * -1.2 - right * 0.6, right * 0.8, right * -0.8}) {
+        const Vec2 spot = p + off;
+        if (nav_.planner().inflated().is_free(spot) && nav_.planner().inflated().segment_free(p, spot)) {
+          yielding_ = true;
+          yield_spot_ = spot;
+          yield_until_ = now_ + from_seconds(8.0);
+          nav_.go_to(spot, 0, "giving way", false);
+          return;
+        }
+      }
     }
     if (holding_) {
       // Waiting at a vertex for the spacing to even out (the strategy says how long).
@@ -406,7 +444,9 @@ class Team : public Plugin {
   std::map<std::string, Mate> mates_;
   std::vector<std::string> team_;
   bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false, oncoming_ = false;
-  bool spacing_hold_ = true;
+  bool spacing_hold_ = true, yielding_ = false;
+  Vec2 yield_spot_;
+  SimTime yield_until_ = 0;
   SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;
