@@ -13,7 +13,7 @@
 #include <random>
 
 #include "tests/test_util.h"
-#include "vision/linear_assignment.h"
+#include "common/linear_assignment.h"
 #include "vision/mot_metrics.h"
 
 namespace vigil::vision {

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "vision/linear_assignment.h"
+#include "common/linear_assignment.h"
 
 namespace vigil::vision {
 

@@ -10,7 +10,7 @@
 //      that hypothesis is present and still within the threshold (a MATCH);
 //   2. the remaining objects and hypotheses are matched by a minimum-cost assignment over the
 //      pairs within the threshold (as many pairs as possible, then the least total distance;
-//      vision/linear_assignment.h); a pair is a SWITCH when the object's last match was another
+//      common/linear_assignment.h); a pair is a SWITCH when the object's last match was another
 //      hypothesis, else a MATCH;
 //   3. objects left over are MISSes (false negatives), hypotheses left over FALSE POSITIVES.
 // From these: MOTA = 1 - (misses + false positives + switches) / ground-truth count; MOTP =

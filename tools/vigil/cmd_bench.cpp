@@ -168,6 +168,7 @@ void add_bench_command(CLI::App& app) {
   add_bench_mcl_command(bench);
   add_bench_plan_command(bench);
   add_bench_patrol_command(bench);
+  add_bench_allocate_command(bench);
 }
 
 }  // namespace vigil::cli

@@ -1,6 +1,7 @@
 // Minimum-cost linear assignment (the Hungarian problem) on a rectangular cost matrix, with
 // forbidden pairs. Used by the MOT metrics (vision/mot_metrics.h) for the per-frame matching of
-// ground truth to hypotheses and for the global identity matching of whole trajectories.
+// ground truth to hypotheses and the global identity matching of whole trajectories, and by the
+// task allocator's optimal reference (planning/allocation).
 //
 // The solver is the shortest-augmenting-path method with dual potentials (Kuhn-Munkres in the
 // form of Jonker and Volgenant, 1987): rows are added one at a time and each is routed to a
@@ -11,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-namespace vigil::vision {
+namespace vigil {
 
 // A rows x cols cost matrix, row-major. Entries that are not finite (NaN, +inf, -inf) mark
 // pairs that may not be assigned.
@@ -33,4 +34,11 @@ std::vector<std::pair<int, int>> solve_linear_assignment(const CostMatrix& m);
 // Total cost of `pairs` in `m`.
 double assignment_cost(const CostMatrix& m, const std::vector<std::pair<int, int>>& pairs);
 
+}  // namespace vigil
+
+namespace vigil::vision {
+// The vision code's historical names for the same solver.
+using ::vigil::CostMatrix;
+using ::vigil::solve_linear_assignment;
+using ::vigil::assignment_cost;
 }  // namespace vigil::vision

@@ -1,10 +1,10 @@
-#include "vision/linear_assignment.h"
+#include "common/linear_assignment.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace vigil::vision {
+namespace vigil {
 
 namespace {
 
@@ -113,4 +113,4 @@ double assignment_cost(const CostMatrix& m, const std::vector<std::pair<int, int
   return total;
 }
 
-}  // namespace vigil::vision
+}  // namespace vigil
