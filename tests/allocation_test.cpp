@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
+#include <map>
+#include <memory>
 #include <numeric>
 
 #include "common/rng.h"
@@ -89,6 +92,108 @@ TEST(Allocation, ForbiddenPairsAreNeverAssigned) {
     for (auto [r, t] : a.pairs) EXPECT_TRUE(std::isfinite(c.at(r, t)));
     EXPECT_DOUBLE_EQ(a.total_cost, 4);
   }
+}
+
+}  // namespace
+}  // namespace vigil::planning::allocation
+
+#include "planning/allocation/token_passing.h"
+
+namespace vigil::planning::allocation {
+namespace {
+
+// Robots on a line; a router that delivers each step's messages the next step, dropping what
+// `drop` says.
+struct TokenWorld {
+  std::map<std::string, double> where;
+  std::map<std::string, std::unique_ptr<TokenAgent>> agents;
+  std::function<bool(const TokenMessage&, int)> drop = [](const TokenMessage&, int) { return false; };
+  int delivered = 0, dropped = 0;
+  explicit TokenWorld(std::map<std::string, double> w) : where(std::move(w)) {
+    std::vector<std::string> names;
+    for (auto& [n, x] : where) names.push_back(n);
+    for (auto& n : names) {
+      agents[n] = std::make_unique<TokenAgent>(n, TokenParams{}, [this](const std::string& r, const TokenTask& t) {
+        return std::abs(where.at(r) - t.where.x);
+      });
+      agents[n]->set_members(names);
+    }
+  }
+  void run(double seconds, double dt = 0.05) {
+    int step = 0;
+    for (double t = 0; t < seconds; t += dt, ++step) {
+      std::vector<TokenMessage> all;
+      for (auto& [n, a] : agents) {
+        a->tick(t);
+        for (auto& m : a->take_outbox()) all.push_back(m);
+      }
+      for (auto& m : all) {
+        for (auto& [n, a] : agents) {
+          if (n == m.from || (!m.to.empty() && m.to != n)) continue;
+          if (drop(m, step)) {
+            ++dropped;
+            continue;
+          }
+          ++delivered;
+          a->receive(m, t + dt);
+        }
+      }
+    }
+  }
+  std::vector<std::string> keepers_of(uint64_t id) const {
+    std::vector<std::string> k;
+    for (auto& [n, a] : agents)
+      for (auto& t : a->kept())
+        if (t.id == id) k.push_back(n);
+    return k;
+  }
+};
+
+TEST(TokenPassing, TheTokenEndsWithTheBestPlacedRobot) {
+  TokenWorld w({{"a", 0}, {"b", 10}, {"c", 20}, {"d", 30}});
+  w.agents["a"]->create({7, "bag_taken", 3, {27, 0}}, 0);  // heard first by a, far from it
+  w.run(2);
+  EXPECT_EQ(w.keepers_of(7), std::vector<std::string>{"d"});
+  for (auto& [n, a] : w.agents) EXPECT_EQ(a->keepers().at(7), "d") << n;  // everyone knows
+}
+
+TEST(TokenPassing, ALostTokenIsSentAgainAndTheAssignmentOnlyDelayed) {
+  TokenWorld w({{"a", 0}, {"b", 10}, {"c", 20}});
+  bool lost = false;
+  w.drop = [&](const TokenMessage& m, int) {
+    if (m.kind == "token" && !lost) return lost = true;  // the first token never arrives
+    return false;
+  };
+  w.agents["a"]->create({9, "left_bag", 1, {19, 0}}, 0);
+  w.run(3);
+  EXPECT_TRUE(lost);
+  EXPECT_EQ(w.keepers_of(9), std::vector<std::string>{"c"});
+}
+
+TEST(TokenPassing, ASilentRobotIsSkippedAndTheTaskNeverDropped) {
+  TokenWorld w({{"a", 0}, {"b", 10}, {"c", 20}});
+  w.drop = [](const TokenMessage& m, int) { return m.to == "c" || m.from == "c"; };  // c is down
+  w.agents["a"]->create({4, "bag_taken", 3, {20, 0}}, 0);
+  w.run(5);
+  const auto k = w.keepers_of(4);
+  ASSERT_EQ(k.size(), 1u);
+  EXPECT_EQ(k[0], "b");  // the next best of those who answer
+  // Every message lost both ways still ends with a keeper: the holder itself.
+  TokenWorld alone({{"a", 0}, {"b", 10}});
+  alone.drop = [](const TokenMessage&, int) { return true; };
+  alone.agents["a"]->create({5, "left_bag", 1, {10, 0}}, 0);
+  alone.run(5);
+  EXPECT_EQ(alone.keepers_of(5), std::vector<std::string>{"a"});
+}
+
+TEST(TokenPassing, DuplicatesAndLateAcksLeaveOneKeeper) {
+  TokenWorld w({{"a", 0}, {"b", 10}, {"c", 20}});
+  // Acks are lost for a while: tokens are resent, copies arrive, b is finally skipped by a
+  // while it already decided.
+  w.drop = [](const TokenMessage& m, int step) { return m.kind == "ack" && step < 60; };
+  w.agents["a"]->create({3, "bag_taken", 3, {12, 0}}, 0);
+  w.run(6);
+  EXPECT_EQ(w.keepers_of(3), std::vector<std::string>{"b"});  // the better of the two that decided
 }
 
 }  // namespace
