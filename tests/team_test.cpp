@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 
 #include "planning/patrol/idleness.h"
 #include "planning/patrol/patrol_graph.h"
@@ -122,6 +123,14 @@ TEST(TeamBus, LatencyLossAndSilenceAreFaultsAProtocolMustSurvive) {
       if (in_window) EXPECT_TRUE(m.from != "b" && who != "b") << who << " got " << m.from << " at " << m.sent;
     }
   }
+}
+
+std::vector<std::string> file_lines(const fs::path& p) {
+  std::vector<std::string> out;
+  std::istringstream in(test::slurp(p));
+  for (std::string l; std::getline(in, l);)
+    if (!l.empty()) out.push_back(l);
+  return out;
 }
 
 // Two team robots on the DIS graph with the real navigator.
@@ -282,6 +291,55 @@ TEST(Team, MalformedDdsTeamMessagesAreRefusedNamingTheField) {
   EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "kind");
   out.msg.from = const_cast<char*>("");
   EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "from");
+}
+
+// The whole loop in `vigil run`: cameras (truth sensor) -> rules -> DDS -> video server ->
+// DDS -> both robots' inboxes -> token passing over DDS -> one robot drives there and guards.
+TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
+  std::vector<std::string> hashes;
+  for (int run = 0; run < 2; ++run) {
+    const fs::path dir = test::fresh_temp_dir("team", "loop" + std::to_string(run));
+    const std::string cmd = std::string(VIGIL_BINARY) + " run " +
+                            (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string() +
+                            " --sensor truth --no-video --quiet --out " + dir.string() + " > /dev/null";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::vector<nlohmann::json> incidents, reports;
+    for (const std::string& l : file_lines(dir / "events.jsonl")) incidents.push_back(nlohmann::json::parse(l));
+    for (const std::string& l : file_lines(dir / "robots.jsonl")) reports.push_back(nlohmann::json::parse(l));
+    ASSERT_EQ(incidents.size(), 2u);  // left bag, bag taken
+    for (const auto& in : incidents) {
+      const uint64_t id = in["id"];
+      std::vector<nlohmann::json> assigned, arrived;
+      for (const auto& r : reports) {
+        if (r.value("task_id", uint64_t{0}) != id) continue;
+        if (r.value("event", "") == "task_assigned") assigned.push_back(r);
+        if (r.value("event", "") == "arrived_at_incident") arrived.push_back(r);
+      }
+      ASSERT_EQ(assigned.size(), 1u) << "incident " << id << " assigned to exactly one robot";
+      const double delay = (assigned[0]["t_ns"].get<int64_t>() - in["t_ns"].get<int64_t>()) * 1e-9;
+      EXPECT_GE(delay, 0.0);
+      EXPECT_LE(delay, 0.5) << "assigned within 0.5 s of reaching the robots";
+      EXPECT_EQ(assigned[0]["role"], "respond");
+      if (in["kind"] == "left_bag") {
+        ASSERT_EQ(arrived.size(), 1u);
+        EXPECT_EQ(arrived[0]["robot"], assigned[0]["robot"]);
+        EXPECT_EQ(arrived[0]["role"], "guard");
+        const double d = std::hypot(arrived[0]["x"].get<double>() - in["map"][0].get<double>(),
+                                    arrived[0]["y"].get<double>() - in["map"][1].get<double>());
+        EXPECT_LT(d, 2.2) << "stopped at the stand-off (1.5 m) from the bag";
+      }
+    }
+    // The bag taken came while the left bag's robot was busy: the other robot has it.
+    std::string left_robot, taken_robot;
+    for (const auto& r : reports) {
+      if (r.value("event", "") != "task_assigned") continue;
+      (r["detail"].get<std::string>().starts_with("left_bag") ? left_robot : taken_robot) = r["robot"];
+    }
+    EXPECT_NE(left_robot, taken_robot);
+    hashes.push_back(sha256_hex(test::slurp(dir / "robots.jsonl")));
+    fs::remove_all(dir);
+  }
+  EXPECT_EQ(hashes[0], hashes[1]) << "the same run, byte for byte";
 }
 
 TEST(Team, BadGraphOrStrategyNamesTheKey) {

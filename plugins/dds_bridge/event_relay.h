@@ -44,6 +44,8 @@ class DdsEventRelay : public RunObserver {
   Status finish(const World& world) override;
 
   const std::vector<Incident>& incidents() const { return published_; }
+  // The DDS domain and session the server publishes incidents on (topic vigil_events).
+  const DomainOptions& domain() const { return options_.domain; }
   const std::vector<std::string>& rejected() const { return rejected_; }
 
  private:

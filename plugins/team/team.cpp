@@ -14,11 +14,15 @@
 // ("respond") until the goal is reached or fails, then it rejoins.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <set>
+#include <tuple>
 
+#include "planning/allocation/allocation.h"
+#include "planning/allocation/token_passing.h"
 #include "planning/patrol/strategy.h"
 #include "plugins/navigator/navigator.h"
 #include "plugins/plugin_export.h"
@@ -87,6 +91,9 @@ class Team : public Plugin {
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
         {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
+        {"standoff", ParamType::kNumber, 1.5, 0.3, 10.0, "respond: stop this far from the incident, facing it (m)"},
+        {"guard_time", ParamType::kNumber, 60.0, 0.0, 36000.0, "respond: guard this long unless the incident is cancelled first (s)"},
+        {"accept_margin", ParamType::kNumber, 0.1, 0.0, 10.0, "token passing: keep a task within this share of the best estimated cost left"},
         {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
         {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
@@ -119,6 +126,9 @@ class Team : public Plugin {
     hello_every_ = from_seconds(p.number("hello_period"));
     member_timeout_ = from_seconds(p.number("member_timeout"));
     pass_offset_ = p.number("pass_offset");
+    standoff_ = p.number("standoff");
+    guard_time_ = from_seconds(p.number("guard_time"));
+    token_params_.accept_margin = p.number("accept_margin");
     spacing_hold_ = p.boolean("spacing_hold");
     pass_distance_ = p.number("pass_distance");
     return Status::Ok();
@@ -142,13 +152,27 @@ class Team : public Plugin {
     role_ = "patrol";
     responding_ = false;
     pending_.clear();
+    tokens_ = std::make_unique<planning::allocation::TokenAgent>(
+        ctx_.model_id, token_params_, [this](const std::string& r, const planning::allocation::TokenTask& t) {
+          return cost_for(r, t);
+        });
+    incidents_.clear();
+    kept_seen_ = 0;
+    task_ = {};
+    guard_until_ = -1;
+    facing_ = false;
   }
 
   void update(const WorldView& world, ModelCommand& cmd) override {
     now_ = world.time();
     knowledge_.now = to_seconds(now_);
+    own_velocity_ = false;
     for (const TeamMessage& m : cmd.take_messages()) receive(m);
     for (RobotTask& t : cmd.take_tasks()) {
+      if (t.kind == "incident" || t.kind == "cancel_incident") {
+        on_incident(t, cmd);
+        continue;
+      }
       if (t.kind == "goto") {
         responding_ = true;
         role_ = "respond";
@@ -159,6 +183,11 @@ class Team : public Plugin {
       }
       pending_.push_back(std::move(t));
     }
+    tokens_->set_members(token_members());
+    tokens_->tick(knowledge_.now);
+    start_overdue_tokens();
+    flush_tokens(cmd);
+    take_kept(cmd);
     if (now_ >= next_hello_) {
       TeamMessage h;
       h.kind = "hello";
@@ -174,12 +203,16 @@ class Team : public Plugin {
       if (patrolling()) {
         update_team();
         if (formed_) patrol(cmd);
+      } else if (task_.id != 0) {
+        own_velocity_ = respond(cmd);  // guarding: the velocity is ours this step
       }
     }
     struct Proxy : ModelCommand {
       ModelCommand* real;
       Team* self;
-      void set_velocity(double v, double w) override { real->set_velocity(v, w); }
+      void set_velocity(double v, double w) override {
+        if (!self->own_velocity_) real->set_velocity(v, w);
+      }
       std::vector<RobotTask> take_tasks() override {
         std::vector<RobotTask> t;
         t.swap(self->pending_);
@@ -198,6 +231,30 @@ class Team : public Plugin {
   bool patrolling() const { return !responding_; }
 
   void receive(const TeamMessage& m) {
+    if (m.kind == "token" || m.kind == "token_ack" || m.kind == "token_keep") {
+      planning::allocation::TokenMessage t;
+      t.kind = m.kind == "token" ? "token" : m.kind == "token_ack" ? "ack" : "keep";
+      t.from = m.from;
+      t.to = m.to;
+      t.task.id = m.task;
+      t.task.priority = m.vertex;
+      t.task.where = m.position;
+      const auto bar = m.text.find('|');
+      t.task.kind = m.text.substr(0, bar);
+      if (bar != std::string::npos) {
+        std::string rest = m.text.substr(bar + 1);
+        size_t a = 0;
+        while (a < rest.size()) {
+          const size_t b = rest.find(',', a);
+          t.visited.push_back(rest.substr(a, b == std::string::npos ? std::string::npos : b - a));
+          if (b == std::string::npos) break;
+          a = b + 1;
+        }
+      }
+      t.hop = m.seq;
+      tokens_->receive(t, knowledge_.now);
+      return;
+    }
     if (m.kind == "hello") {
       Mate& mate = mates_[m.from];
       mate.where = m.position;
@@ -249,6 +306,167 @@ class Team : public Plugin {
     holding_ = false;
     yielding_ = false;
     target_ = -1;
+  }
+
+  // ---- Response mode: incidents, token passing, respond, guard.
+  // The team members tokens may go to: the patrolling team (me included while patrolling).
+  std::vector<std::string> token_members() const {
+    std::vector<std::string> m;
+    if (patrolling()) m.push_back(ctx_.model_id);
+    for (const auto& [id, mate] : mates_) {
+      if (mate.patrolling && now_ - mate.heard <= member_timeout_) m.push_back(id);
+    }
+    return m;
+  }
+
+  // Estimated time to serve a task: the planned path from where the robot is (mine exactly,
+  // a mate's from its last hello) at cruise speed; infinite for a robot busy responding.
+  double cost_for(const std::string& robot, const planning::allocation::TokenTask& t) const {
+    Vec2 from;
+    if (robot == ctx_.model_id) {
+      if (!patrolling()) return std::numeric_limits<double>::infinity();
+      from = nav_.pose().position();
+    } else {
+      auto it = mates_.find(robot);
+      if (it == mates_.end() || !it->second.patrolling) return std::numeric_limits<double>::infinity();
+      from = it->second.where;
+    }
+    const auto r = nav_.planner().plan(from, t.where, nullptr);
+    return planning::has_path(r.outcome) ? r.length / std::max(0.05, nav_.cruise_speed())
+                                         : std::numeric_limits<double>::infinity();
+  }
+
+  // An incident from the transport (every team robot gets it): the first patrolling member by
+  // name starts its token; any other starts one if no keeper is known after 2 s (that member
+  // may be silent; two tokens end with one keeper).
+  void on_incident(const RobotTask& t, ModelCommand& cmd) {
+    if (t.kind == "cancel_incident") {
+      auto it = incidents_.find(t.id);
+      if (it != incidents_.end()) it->second.cancelled = true;
+      if (task_.id == t.id) end_response(cmd, "incident cancelled");
+      return;
+    }
+    if (incidents_.count(t.id)) return;
+    Known k;
+    k.task = {t.id, t.label, planning::allocation::default_priority(t.label), t.goal};
+    k.heard = now_;
+    incidents_[t.id] = k;
+    const auto members = token_members();
+    if (!members.empty() && members.front() == ctx_.model_id) {
+      tokens_->create(k.task, knowledge_.now);
+      incidents_[t.id].started = true;
+    }
+  }
+
+  void start_overdue_tokens() {
+    for (auto& [id, k] : incidents_) {
+      if (k.started || k.cancelled || tokens_->keepers().count(id)) continue;
+      if (now_ - k.heard >= from_seconds(2.0) && patrolling()) {
+        tokens_->create(k.task, knowledge_.now);
+        k.started = true;
+      }
+    }
+  }
+
+  void flush_tokens(ModelCommand& cmd) {
+    for (const auto& t : tokens_->take_outbox()) {
+      TeamMessage m;
+      m.kind = t.kind == "token" ? "token" : t.kind == "ack" ? "token_ack" : "token_keep";
+      m.to = t.to;
+      m.task = t.task.id;
+      m.vertex = t.task.priority;
+      m.position = t.task.where;
+      m.seq = t.hop;
+      m.text = t.task.kind + "|";
+      for (size_t i = 0; i < t.visited.size(); ++i) m.text += (i ? "," : "") + t.visited[i];
+      cmd.send(m);
+    }
+  }
+
+  // A task the token left with me: respond.
+  void take_kept(ModelCommand& cmd) {
+    const auto& kept = tokens_->kept();
+    while (kept_seen_ < kept.size()) {
+      const auto& t = kept[kept_seen_++];
+      auto it = incidents_.find(t.id);
+      if (it != incidents_.end() && it->second.cancelled) continue;
+      if (task_.id != 0) continue;  // busy (a second keeper will be resolved by the protocol)
+      task_ = t;
+      responding_ = true;
+      role_ = "respond";
+      holding_ = yielding_ = false;
+      guard_until_ = -1;
+      facing_ = false;
+      standoff_goal_ = standoff_point(t.where);
+      nav_.go_to(standoff_goal_, t.id, "incident " + std::to_string(t.id), false);
+      RobotReport r = base_report("task_assigned", t.kind + " " + std::to_string(t.id));
+      cmd.report(r);
+    }
+  }
+
+  // Where to stop: `standoff` from the incident on the free side nearest to me.
+  Vec2 standoff_point(Vec2 where) const {
+    const Vec2 me = nav_.pose().position();
+    const double base = std::atan2(me.y - where.y, me.x - where.x);
+    const auto& g = nav_.planner().inflated();
+    for (int k = 0; k < 16; ++k) {
+      const double a = base + (k % 2 ? 1 : -1) * ((k + 1) / 2) * M_PI / 8;
+      const Vec2 p = where + Vec2{std::cos(a), std::sin(a)} * standoff_;
+      if (g.is_free(p)) return p;
+    }
+    return where;  // the planner moves a goal in an obstacle to the nearest free place
+  }
+
+  // Driving there, then guarding: true when this step's velocity is set here (facing).
+  bool respond(ModelCommand& cmd) {
+    if (guard_until_ < 0) {
+      if (nav_.has_goal()) return false;
+      if (nav_.mode() == "failed") {
+        end_response(cmd, "could not reach the incident");
+        return false;
+      }
+      // Arrived: guard.
+      guard_until_ = now_ + guard_time_;
+      role_ = "guard";
+      nav_.halt();
+      cmd.report(base_report("arrived_at_incident", task_.kind + " " + std::to_string(task_.id)));
+    }
+    if (now_ >= guard_until_) {
+      end_response(cmd, "guard time over");
+      return false;
+    }
+    // Face the incident (the disc turns in place).
+    const Pose2 me = nav_.pose();
+    const double err = wrap_angle(std::atan2(task_.where.y - me.y, task_.where.x - me.x) - me.yaw);
+    cmd.set_velocity(0, std::abs(err) > 0.05 ? std::clamp(2.0 * err, -ctx_.max_turn_rate, ctx_.max_turn_rate) : 0.0);
+    return true;
+  }
+
+  void end_response(ModelCommand& cmd, const std::string& why) {
+    cmd.report(base_report("response_done", task_.kind + " " + std::to_string(task_.id) + ": " + why));
+    tokens_->forget(task_.id);
+    task_ = {};
+    guard_until_ = -1;
+    responding_ = false;
+    role_ = "patrol";
+    target_ = -1;
+    formed_ = false;
+    nav_.halt();
+  }
+
+  RobotReport base_report(const std::string& event, const std::string& detail) const {
+    RobotReport r;
+    r.pose = nav_.pose();
+    r.localized = nav_.is_localized();
+    std::tie(r.position_std, r.yaw_std) = nav_.uncertainty();
+    r.mode = nav_.mode();
+    r.role = role_;
+    r.task_id = task_.id;
+    r.event = event;
+    r.detail = detail;
+    r.goal = task_.id ? standoff_goal_ : Vec2{};
+    r.cruise_speed = nav_.cruise_speed();
+    return r;
   }
 
   // A mate within 3 m: a robot standing in a corridor would be in its way.
@@ -412,7 +630,7 @@ class Team : public Plugin {
   void forward(ModelCommand& cmd, const RobotReport& r) {
     RobotReport out = r;
     out.role = role_;
-    if (responding_ && (r.event == "goal_reached" || r.event == "goal_failed") && r.task_id != 0) {
+    if (responding_ && task_.id == 0 && (r.event == "goal_reached" || r.event == "goal_failed") && r.task_id != 0) {
       // Back to patrol; the team takes me in again.
       responding_ = false;
       role_ = "patrol";
@@ -454,6 +672,21 @@ class Team : public Plugin {
   std::vector<int> visited_now_;
   std::string role_ = "patrol";
   std::vector<RobotTask> pending_;
+  // Response.
+  struct Known {
+    planning::allocation::TokenTask task;
+    SimTime heard = 0;
+    bool started = false, cancelled = false;
+  };
+  planning::allocation::TokenParams token_params_;
+  std::unique_ptr<planning::allocation::TokenAgent> tokens_;
+  std::map<uint64_t, Known> incidents_;
+  size_t kept_seen_ = 0;
+  planning::allocation::TokenTask task_;
+  Vec2 standoff_goal_;
+  double standoff_ = 1.5;
+  SimTime guard_time_ = 0, guard_until_ = -1;
+  bool facing_ = false, own_velocity_ = false;
 };
 
 }  // namespace

@@ -1,6 +1,7 @@
 // vigil run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--no-video]
 // Writes the ground truth, summary, top-down video and (rendered with OSMesa) each camera's video.
 #include <algorithm>
+#include <chrono>
 #include <unistd.h>
 
 #include <cstdio>
@@ -101,6 +102,43 @@ void add_run_command(CLI::App& app) {
       ro.observers.push_back(host->get());
     }
     if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
+    // The robots' side of the incidents: a participant subscribed to the server's vigil_events
+    // that puts every incident (and cancellation) in each team robot's inbox, in lockstep with
+    // the server (every incident published so far is in the inboxes before the next step).
+    std::unique_ptr<dds::Participant> robot_side;
+    std::unique_ptr<dds::IncidentSubscriber> incident_sub;
+    size_t incidents_in = 0;
+    std::vector<std::string> team_ids;
+    for (const RobotSpec& r : scenario->robots)
+      if (r.controller == "team") team_ids.push_back(r.id);
+    if (relay && !team_ids.empty()) {
+      auto p = dds::Participant::create(relay->domain());
+      if (!p) throw Exit{report(p.error())};
+      robot_side = std::move(*p);
+      auto sub = dds::IncidentSubscriber::create(*robot_side);
+      if (!sub) throw Exit{report(sub.error())};
+      incident_sub = std::move(*sub);
+      dds::DdsEventRelay* rp = relay.get();
+      ro.before_step = [rp, &incident_sub, &incidents_in, team_ids](World& w) {
+        const auto t0 = std::chrono::steady_clock::now();
+        while (incidents_in < rp->incidents().size()) {
+          std::vector<dds::Incident> got;
+          if (Status s = incident_sub->poll(0.05, &got); !s) throw Exit{report(s.error())};
+          for (const dds::Incident& in : got) {
+            RobotTask t;
+            t.id = in.id;
+            t.kind = in.cancelled ? "cancel_incident" : "incident";
+            t.goal = {in.position.x, in.position.y};
+            t.label = std::string(vision::to_string(in.kind));
+            for (const std::string& id : team_ids) (void)w.post_task(id, t);
+          }
+          incidents_in += got.size();
+          if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > 10) {
+            throw Exit{report(internal_error("the robots did not receive an incident over DDS within 10 s"))};
+          }
+        }
+      };
+    }
     // Team messages between the robots' controllers: over DDS (a participant per robot, in
     // lockstep, so the run is the same as with the local bus), or the in-process bus.
     std::unique_ptr<dds::DdsTeamBus> team_bus;
