@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -169,7 +170,7 @@ struct TeamRun {
 };
 
 TeamRun run_team(const std::string& strategy, double duration, const std::string& name, TeamBusOptions bus = {},
-                 bool over_dds = false) {
+                 bool over_dds = false, std::function<void(World&)> before_step = nullptr) {
   TeamRun r;
   auto sc = parse_scenario(team_scenario(strategy, duration), test::source_dir() / "scenarios" / "inline_team.yaml");
   EXPECT_TRUE(sc.ok()) << sc.error().str();
@@ -196,6 +197,7 @@ TeamRun run_team(const std::string& strategy, double duration, const std::string
   ro.video = false;
   ro.team_bus = bus;
   ro.observers.push_back(&watch);
+  ro.before_step = before_step;
   std::unique_ptr<dds::DdsTeamBus> dds_bus;
   if (over_dds) {
     auto b = dds::DdsTeamBus::create({"robot1", "robot2"}, {});
@@ -340,6 +342,46 @@ TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
     fs::remove_all(dir);
   }
   EXPECT_EQ(hashes[0], hashes[1]) << "the same run, byte for byte";
+}
+
+// An incident posted to both robots at 20 s; the keeper falls silent at 25 s: the other robot
+// reopens the task and takes it within 5 s.
+TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {
+  auto post = [](World& w) {
+    if (w.time() == from_seconds(20.0)) {
+      RobotTask t;
+      t.id = 42;
+      t.kind = "incident";
+      t.goal = {21.0, 3.3};
+      t.label = "left_bag";
+      for (const char* r : {"robot1", "robot2"}) ASSERT_TRUE(w.post_task(r, t).ok());
+    }
+  };
+  auto assignments = [](const fs::path& dir) {
+    std::vector<std::pair<double, std::string>> out;
+    for (const std::string& l : file_lines(dir / "robots.jsonl")) {
+      auto j = nlohmann::json::parse(l);
+      if (j.value("event", "") == "task_assigned" && j["task_id"] == 42) out.push_back({j["t_ns"].get<int64_t>() * 1e-9, j["robot"]});
+    }
+    return out;
+  };
+  TeamRun first = run_team("cyclic", 40, "fault_a", {}, false, post);
+  const auto a = assignments(first.dir);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_LE(a[0].first - 20.0, 0.5);
+  const std::string keeper = a[0].second, other = keeper == "robot1" ? "robot2" : "robot1";
+  TeamBusOptions bus;
+  bus.silences.push_back({keeper, 25.0, 1e9});
+  TeamRun second = run_team("cyclic", 40, "fault_b", bus, false, post);
+  const auto b = assignments(second.dir);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_EQ(b[0].second, keeper);
+  EXPECT_EQ(b[1].second, other);
+  EXPECT_GT(b[1].first, 25.0);
+  EXPECT_LE(b[1].first, 30.0) << "reassigned within 5 s of the keeper falling silent";
+  EXPECT_NE(test::slurp(second.dir / "robots.jsonl").find("task_reopened"), std::string::npos);
+  fs::remove_all(first.dir);
+  fs::remove_all(second.dir);
 }
 
 TEST(Team, BadGraphOrStrategyNamesTheKey) {

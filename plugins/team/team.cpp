@@ -157,7 +157,8 @@ class Team : public Plugin {
           return cost_for(r, t);
         });
     incidents_.clear();
-    kept_seen_ = 0;
+    queue_.clear();
+    handled_.clear();
     task_ = {};
     guard_until_ = -1;
     facing_ = false;
@@ -186,6 +187,8 @@ class Team : public Plugin {
     tokens_->set_members(token_members());
     tokens_->tick(knowledge_.now);
     start_overdue_tokens();
+    reopen_silent_keepers(cmd);
+    release_lost_task(cmd);
     flush_tokens(cmd);
     take_kept(cmd);
     if (now_ >= next_hello_) {
@@ -255,6 +258,19 @@ class Team : public Plugin {
       tokens_->receive(t, knowledge_.now);
       return;
     }
+    if (m.kind == "task_done") {
+      incidents_[m.task].done = true;
+      tokens_->forget(m.task);
+      return;
+    }
+    if (m.kind == "task_reopen") {
+      // The keeper fell silent: a new token for the task follows from the sender.
+      tokens_->forget(m.task);
+      handled_.erase(m.task);
+      auto it = incidents_.find(m.task);
+      if (it != incidents_.end()) it->second.started = true;  // the sender started it
+      return;
+    }
     if (m.kind == "hello") {
       Mate& mate = mates_[m.from];
       mate.where = m.position;
@@ -316,7 +332,23 @@ class Team : public Plugin {
     for (const auto& [id, mate] : mates_) {
       if (mate.patrolling && now_ - mate.heard <= member_timeout_) m.push_back(id);
     }
+    std::sort(m.begin(), m.end());
     return m;
+  }
+
+  // Two keepers of one task resolve to one (token_passing.h): the other gives it up.
+  void release_lost_task(ModelCommand& cmd) {
+    if (task_.id == 0) return;
+    const auto& kept = tokens_->kept();
+    if (std::any_of(kept.begin(), kept.end(), [&](const auto& t) { return t.id == task_.id; })) return;
+    cmd.report(base_report("task_released", task_.kind + " " + std::to_string(task_.id) + ": another robot keeps it"));
+    task_ = {};
+    guard_until_ = -1;
+    responding_ = false;
+    role_ = "patrol";
+    target_ = -1;
+    formed_ = false;
+    nav_.halt();
   }
 
   // Estimated time to serve a task: the planned path from where the robot is (mine exactly,
@@ -360,11 +392,35 @@ class Team : public Plugin {
 
   void start_overdue_tokens() {
     for (auto& [id, k] : incidents_) {
-      if (k.started || k.cancelled || tokens_->keepers().count(id)) continue;
+      if (k.started || k.cancelled || k.done || tokens_->keepers().count(id)) continue;
       if (now_ - k.heard >= from_seconds(2.0) && patrolling()) {
         tokens_->create(k.task, knowledge_.now);
         k.started = true;
       }
+    }
+  }
+
+  // A mate that kept a task and has not been heard for `keeper_timeout`: the first patrolling
+  // member by name reopens the task (everyone forgets the old token) and starts a new token.
+  void reopen_silent_keepers(ModelCommand& cmd) {
+    const auto members = token_members();
+    if (members.empty() || members.front() != ctx_.model_id) return;
+    for (auto& [id, k] : incidents_) {
+      if (k.done || k.cancelled) continue;
+      auto kp = tokens_->keepers().find(id);
+      if (kp == tokens_->keepers().end() || kp->second == ctx_.model_id) continue;
+      auto mate = mates_.find(kp->second);
+      if (mate != mates_.end() && now_ - mate->second.heard <= keeper_timeout_) continue;
+      TeamMessage m;
+      m.kind = "task_reopen";
+      m.task = id;
+      m.text = kp->second;
+      cmd.send(m);
+      tokens_->forget(id);
+      handled_.erase(id);
+      cmd.report(base_report("task_reopened", k.task.kind + " " + std::to_string(id) + ": " + kp->second + " fell silent"));
+      tokens_->create(k.task, knowledge_.now);
+      k.started = true;
     }
   }
 
@@ -385,12 +441,20 @@ class Team : public Plugin {
 
   // A task the token left with me: respond.
   void take_kept(ModelCommand& cmd) {
-    const auto& kept = tokens_->kept();
-    while (kept_seen_ < kept.size()) {
-      const auto& t = kept[kept_seen_++];
+    for (const auto& t : tokens_->kept()) {
+      if (!handled_.insert(t.id).second) continue;
       auto it = incidents_.find(t.id);
       if (it != incidents_.end() && it->second.cancelled) continue;
-      if (task_.id != 0) continue;  // busy (a second keeper will be resolved by the protocol)
+      if (task_.id != 0) {
+        queue_.push_back(t);  // busy: served after the current one (highest priority first)
+        continue;
+      }
+      start_task(t, cmd);
+    }
+  }
+
+  void start_task(const planning::allocation::TokenTask& t, ModelCommand& cmd) {
+    {
       task_ = t;
       responding_ = true;
       role_ = "respond";
@@ -444,6 +508,11 @@ class Team : public Plugin {
 
   void end_response(ModelCommand& cmd, const std::string& why) {
     cmd.report(base_report("response_done", task_.kind + " " + std::to_string(task_.id) + ": " + why));
+    TeamMessage done;
+    done.kind = "task_done";
+    done.task = task_.id;
+    cmd.send(done);
+    incidents_[task_.id].done = true;
     tokens_->forget(task_.id);
     task_ = {};
     guard_until_ = -1;
@@ -452,6 +521,17 @@ class Team : public Plugin {
     target_ = -1;
     formed_ = false;
     nav_.halt();
+    // Next queued task, highest priority first (cancelled or done ones dropped).
+    queue_.erase(std::remove_if(queue_.begin(), queue_.end(),
+                                [&](const auto& q) { return incidents_[q.id].done || incidents_[q.id].cancelled; }),
+                 queue_.end());
+    if (!queue_.empty()) {
+      auto best = std::max_element(queue_.begin(), queue_.end(),
+                                   [](const auto& a, const auto& b) { return a.priority < b.priority; });
+      const auto next = *best;
+      queue_.erase(best);
+      start_task(next, cmd);
+    }
   }
 
   RobotReport base_report(const std::string& event, const std::string& detail) const {
@@ -676,12 +756,14 @@ class Team : public Plugin {
   struct Known {
     planning::allocation::TokenTask task;
     SimTime heard = 0;
-    bool started = false, cancelled = false;
+    bool started = false, cancelled = false, done = false;
   };
+  std::vector<planning::allocation::TokenTask> queue_;
+  SimTime keeper_timeout_ = from_seconds(2.0);
   planning::allocation::TokenParams token_params_;
   std::unique_ptr<planning::allocation::TokenAgent> tokens_;
   std::map<uint64_t, Known> incidents_;
-  size_t kept_seen_ = 0;
+  std::set<uint64_t> handled_;  // kept tasks already started or queued
   planning::allocation::TokenTask task_;
   Vec2 standoff_goal_;
   double standoff_ = 1.5;
