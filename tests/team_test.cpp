@@ -339,6 +339,25 @@ TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
     }
     EXPECT_NE(left_robot, taken_robot);
     hashes.push_back(sha256_hex(test::slurp(dir / "robots.jsonl")));
+    if (run == 0) {
+      // vigil eval's response section: the left bag's robot travelled at most 1.2 x the best
+      // free robot's planned time and was the cheapest choice.
+      const std::string ev = std::string(VIGIL_BINARY) + " eval " + dir.string() + " --scenario " +
+                             (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string() + " > /dev/null";
+      ASSERT_EQ(std::system(ev.c_str()), 0);
+      auto eval = nlohmann::json::parse(test::slurp(dir / "eval.json"));
+      ASSERT_TRUE(eval.contains("response"));
+      ASSERT_EQ(eval["response"].size(), 2u);
+      for (const auto& r : eval["response"]) {
+        EXPECT_TRUE(r["assigned"].get<bool>());
+        EXPECT_LE(r["time_to_assignment_s"].get<double>(), 0.5);
+        EXPECT_LE(r["chosen_cost_over_best"].get<double>(), 1.2);
+        if (r["kind"] == "left_bag") {
+          ASSERT_TRUE(r["arrived"].get<bool>());
+          EXPECT_LE(r["travel_over_best"].get<double>(), 1.2);
+        }
+      }
+    }
     fs::remove_all(dir);
   }
   EXPECT_EQ(hashes[0], hashes[1]) << "the same run, byte for byte";

@@ -16,12 +16,17 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <limits>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "plugins/builtin.h"
 #include "tools/vigil/commands.h"
+#include "planning/two_level_planner.h"
+#include "world/floorplan.h"
+#include "world/map.h"
 #include "world/navigation_eval.h"
 #include "planning/patrol/idleness.h"
 #include "planning/patrol/patrol_graph.h"
@@ -174,6 +179,131 @@ void run_mot_challenge(const Opts& o) {
   auto m = vision::evaluate_mot_challenge(*gt, *test, params);
   if (!m) throw Exit{report(m.error())};
   std::printf("%s\n", motmetrics_json(*m).dump(2).c_str());
+}
+
+// The response to each incident: who was assigned and when, when it arrived, its travel time
+// over the best travel time any robot free at that moment had (their true positions, the
+// two-level planner on the scenario's map, each robot's cruise speed), and the chosen robot's
+// planned cost over the best one's: eval.json "response", and a table.
+void evaluate_run_response(const fs::path& dir, const std::string& scenario_file, nlohmann::ordered_json* eval) {
+  ScenarioContext ctx;
+  auto sc = load_scenario(scenario_file, ctx);
+  if (!sc) throw Exit{report(sc.error())};
+  Result<OccupancyGrid> grid = sc->map.string().ends_with(".floorplan.yaml") ? [&]() -> Result<OccupancyGrid> {
+    auto fp = load_floorplan(sc->map);
+    if (!fp) return fp.error();
+    return fp->rasterize();
+  }()
+                                                                             : load_map(sc->map);
+  if (!grid) throw Exit{report(grid.error())};
+  planning::TwoLevelParams tp;
+  tp.robot_radius = 0.38;
+  auto planner = planning::TwoLevelPlanner::create(*grid, tp, {});
+  if (!planner) throw Exit{report(planner.error())};
+  auto read_lines = [](const fs::path& p) {
+    std::vector<nlohmann::json> out;
+    std::ifstream in(p);
+    for (std::string l; std::getline(in, l);) {
+      auto j = nlohmann::json::parse(l, nullptr, false);
+      if (!j.is_discarded()) out.push_back(j);
+    }
+    return out;
+  };
+  const auto events = read_lines(dir / "events.jsonl");
+  const auto reports = read_lines(dir / "robots.jsonl");
+  // True positions per tick.
+  std::vector<std::pair<int64_t, std::map<std::string, Vec2>>> ticks;
+  for (const auto& j : read_lines(dir / "ground_truth.jsonl")) {
+    if (j.value("type", "") != "tick") continue;
+    std::map<std::string, Vec2> at;
+    for (const auto& e : j["entities"])
+      if (e.value("kind", "") == "robot") at[e.value("id", "")] = {e.value("x", 0.0), e.value("y", 0.0)};
+    ticks.push_back({j.value("t_ns", int64_t{0}), at});
+  }
+  auto positions_at = [&](int64_t t) {
+    std::map<std::string, Vec2> best;
+    for (const auto& [tt, at] : ticks) {
+      if (tt > t) break;
+      best = at;
+    }
+    return best;
+  };
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  std::printf("response (%s)\n%-10s %-20s %-8s %9s %9s %9s %10s %10s %8s\n", scenario_file.c_str(), "incident", "kind",
+              "robot", "assign s", "arrive s", "travel s", "best s", "travel/best", "cost/best");
+  for (const auto& ev : events) {
+    if (ev.value("cancelled", false)) continue;
+    const uint64_t id = ev.value("id", uint64_t{0});
+    const int64_t t0 = ev.value("t_ns", int64_t{0});
+    const Vec2 where{ev["map"][0].get<double>(), ev["map"][1].get<double>()};
+    nlohmann::ordered_json r;
+    r["incident"] = id;
+    r["kind"] = ev.value("kind", "");
+    const nlohmann::json* assigned = nullptr;
+    const nlohmann::json* arrived = nullptr;
+    for (const auto& rep : reports) {
+      if (rep.value("task_id", uint64_t{0}) != id) continue;
+      if (!assigned && rep.value("event", "") == "task_assigned") assigned = &rep;
+      if (assigned && !arrived && rep.value("event", "") == "arrived_at_incident" && rep["robot"] == (*assigned)["robot"]) arrived = &rep;
+    }
+    if (!assigned) {
+      r["assigned"] = false;
+      list.push_back(r);
+      std::printf("%-10llu %-20s %-8s   (not assigned)\n", static_cast<unsigned long long>(id), r["kind"].get<std::string>().c_str(), "-");
+      continue;
+    }
+    const int64_t ta = (*assigned)["t_ns"].get<int64_t>();
+    const std::string robot = (*assigned)["robot"];
+    // Who was free (its latest report before the assignment not responding or guarding), and
+    // its planned travel time from where it truly was.
+    std::map<std::string, std::string> role;
+    std::map<std::string, double> speed;
+    for (const auto& rep : reports) {
+      if (rep["t_ns"].get<int64_t>() >= ta) break;
+      role[rep["robot"]] = rep.value("role", "");
+      speed[rep["robot"]] = rep.value("cruise_speed", 0.0);
+    }
+    const auto at = positions_at(ta);
+    double best = std::numeric_limits<double>::infinity(), chosen = std::numeric_limits<double>::infinity();
+    for (const auto& [id_r, p] : at) {
+      if (role.count(id_r) && (role[id_r] == "respond" || role[id_r] == "guard")) continue;
+      const double v = speed.count(id_r) && speed[id_r] > 0 ? speed[id_r] : 1.0;
+      const auto plan = (*planner)->plan(p, where, nullptr);
+      if (!planning::has_path(plan.outcome)) continue;
+      const double tt = plan.length / v;
+      best = std::min(best, tt);
+      if (id_r == robot) chosen = tt;
+    }
+    r["assigned"] = true;
+    r["robot"] = robot;
+    r["time_to_assignment_s"] = (ta - t0) * 1e-9;
+    r["best_travel_s"] = std::isfinite(best) ? best : -1.0;
+    r["chosen_cost_over_best"] = std::isfinite(best) && best > 0 ? chosen / best : -1.0;
+    if (arrived) {
+      const double travel = ((*arrived)["t_ns"].get<int64_t>() - ta) * 1e-9;
+      r["arrived"] = true;
+      r["travel_s"] = travel;
+      r["travel_over_best"] = std::isfinite(best) && best > 0 ? travel / best : -1.0;
+    } else {
+      r["arrived"] = false;
+    }
+    r["picture"] = false;  // not built yet (docs/TEAM.md)
+    list.push_back(r);
+    std::printf("%-10llu %-20s %-8s %9.2f %9s %9s %9.1f %10s %8.2f\n", static_cast<unsigned long long>(id),
+                r["kind"].get<std::string>().c_str(), robot.c_str(), (ta - t0) * 1e-9,
+                arrived ? std::to_string(((*arrived)["t_ns"].get<int64_t>() - t0) * 1e-9).substr(0, 6).c_str() : "-",
+                arrived ? std::to_string(r["travel_s"].get<double>()).substr(0, 6).c_str() : "-", best,
+                arrived ? std::to_string(r["travel_over_best"].get<double>()).substr(0, 5).c_str() : "-",
+                r["chosen_cost_over_best"].get<double>());
+  }
+  (*eval)["response"] = list;
+}
+
+bool test_file_contains(const fs::path& p, const std::string& needle) {
+  std::ifstream in(p);
+  for (std::string l; std::getline(in, l);)
+    if (l.find(needle) != std::string::npos) return true;
+  return false;
 }
 
 // Patrol idleness of the run's robots on a patrol graph, from their true positions in the
@@ -510,6 +640,10 @@ void run_map_eval(const Opts& o) {
   if (have_events) evaluate_run_events(gt_path, events_path, &*eval);
   if (have_robots) evaluate_run_navigation(gt_path, robots_path, &*eval);
   if (!patrol_graph.empty()) evaluate_run_patrol(gt_path, robots_path, patrol_graph, o.visit_radius, &*eval);
+  if (have_events && have_robots && !o.scenario.empty() &&
+      test_file_contains(robots_path, "\"task_assigned\"")) {
+    evaluate_run_response(dir, o.scenario, &*eval);
+  }
   if (Status s = write_text_file(eval_path, eval->dump(2) + "\n"); !s) throw Exit{report(s.error())};
   std::printf("wrote %s\n", eval_path.string().c_str());
 }
