@@ -118,8 +118,17 @@ cv::Mat TopdownRenderer::draw(const World& world) {
     }
     const int rad = std::max(3, static_cast<int>((r.model.radius + 0.1) * scale_));
     cv::circle(img, to_px(rep.pose.position()), rad, cv::Scalar(220, 80, 0), lw, cv::LINE_AA);
+    // A team robot's role; responding or guarding, its assignment: a line to where it goes.
+    if (rep.role == "respond" || rep.role == "guard") {
+      const cv::Scalar task_col = rep.role == "guard" ? cv::Scalar(0, 0, 200) : cv::Scalar(0, 120, 255);
+      if (rep.goal.x != 0 || rep.goal.y != 0) {
+        cv::line(img, c, to_px(rep.goal), task_col, lw, cv::LINE_AA);
+        cv::circle(img, to_px(rep.goal), std::max(4, static_cast<int>(0.4 * scale_)), task_col, lw + 1, cv::LINE_AA);
+      }
+    }
     if (!many) {
-      cv::putText(img, rep.mode, c + cv::Point(rad + 2, rad + 10), cv::FONT_HERSHEY_SIMPLEX, 0.32 * lw, col, 1,
+      const std::string label = rep.role.empty() ? rep.mode : rep.role + " / " + rep.mode;
+      cv::putText(img, label, c + cv::Point(rad + 2, rad + 10), cv::FONT_HERSHEY_SIMPLEX, 0.32 * lw, col, 1,
                   cv::LINE_AA);
     }
   }
