@@ -403,6 +403,62 @@ TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {
   fs::remove_all(second.dir);
 }
 
+// The same with a scripted breakdown (faults: in the scenario): the keeper stops at 25 s.
+TEST(Team, ATaskOfARobotThatBreaksDownIsReassignedWithinFiveSeconds) {
+  auto post = [](World& w) {
+    if (w.time() == from_seconds(20.0)) {
+      RobotTask t;
+      t.id = 42;
+      t.kind = "incident";
+      t.goal = {21.0, 3.3};
+      t.label = "left_bag";
+      for (const char* r : {"robot1", "robot2"}) ASSERT_TRUE(w.post_task(r, t).ok());
+    }
+  };
+  for (const std::string keeper : {"robot1", "robot2"}) {
+    std::string text = team_scenario("cyclic", 40) + "faults:\n  - {robot: " + keeper + ", at: 25, kind: stop}\n";
+    auto sc = parse_scenario(text, test::source_dir() / "scenarios" / "inline_team.yaml");
+    ASSERT_TRUE(sc.ok()) << sc.error().str();
+    ASSERT_EQ(sc->faults.size(), 1u);
+    const fs::path dir = test::fresh_temp_dir("team", "stop_" + keeper);
+    RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
+    ro.out_dir = dir;
+    ro.video = false;
+    ro.before_step = post;
+    ASSERT_TRUE(run_scenario(*sc, ro).ok());
+    std::vector<std::pair<double, std::string>> a;
+    for (const std::string& l : file_lines(dir / "robots.jsonl")) {
+      auto j = nlohmann::json::parse(l);
+      if (j.value("event", "") == "task_assigned" && j["task_id"] == 42) a.push_back({j["t_ns"].get<int64_t>() * 1e-9, j["robot"]});
+    }
+    ASSERT_FALSE(a.empty());
+    if (a[0].second != keeper) {
+      // The other robot kept it first: its mate's breakdown changes nothing.
+      EXPECT_EQ(a.size(), 1u);
+    } else {
+      ASSERT_EQ(a.size(), 2u) << "reassigned after " << keeper << " stopped";
+      EXPECT_NE(a[1].second, keeper);
+      EXPECT_GT(a[1].first, 25.0);
+      EXPECT_LE(a[1].first, 30.0);
+    }
+    fs::remove_all(dir);
+  }
+}
+
+TEST(Team, FaultsAreCheckedNamingTheLineAndKey) {
+  auto err = [](const std::string& faults) {
+    auto sc = parse_scenario(team_scenario("cyclic", 10) + "faults:\n" + faults,
+                             test::source_dir() / "scenarios" / "inline_team.yaml");
+    return sc.ok() ? std::string() : sc.error().str();
+  };
+  EXPECT_NE(err("  - {robot: robot9, at: 5, kind: stop}\n").find("no robot 'robot9'"), std::string::npos);
+  EXPECT_NE(err("  - {robot: robot1, at: 5, kind: explode}\n").find("must be stop or silent"), std::string::npos);
+  EXPECT_NE(err("  - {robot: robot1, at: -1, kind: stop}\n").find("faults[0].at"), std::string::npos);
+  EXPECT_NE(err("  - {robot: robot1, kind: stop}\n").find("at"), std::string::npos);
+  EXPECT_EQ(err("  - {robot: robot1, at: 5, kind: silent}\n"), "");
+}
+
 TEST(Team, BadGraphOrStrategyNamesTheKey) {
   auto bad = [](const std::string& from, const std::string& to) {
     std::string text = team_scenario("cyclic", 10);

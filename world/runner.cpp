@@ -96,7 +96,12 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
   }
   const SimTime record_every = std::max<SimTime>(world.step_length(), from_seconds(1.0 / scenario.record_rate_hz));
   SimTime next_record = 0;
-  LocalTeamBus bus(options.team_bus);
+  // Scripted radio failures: the robot's team messages lost both ways from their time.
+  TeamBusOptions bus_options = options.team_bus;
+  for (const FaultSpec& f : scenario.faults) {
+    if (f.kind == "silent") bus_options.silences.push_back({f.robot, f.at, 1e300});
+  }
+  LocalTeamBus bus(bus_options);
   const auto t0 = std::chrono::steady_clock::now();
   auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   double next_progress = options.progress_interval_s;

@@ -85,7 +85,7 @@ class ScenarioReader {
 
   Scenario read() {
     const Mapping top = root_.mapping({"name", "map", "duration", "seed", "physics_rate_hz", "record_rate_hz",
-                                       "rules", "places", "cameras", "robots", "people", "objects"});
+                                       "rules", "places", "cameras", "robots", "people", "objects", "faults"});
     sc_.file = file_;
     sc_.name = file_.stem().string();
     if (auto v = top.get("name")) sc_.name = v->string();
@@ -112,6 +112,23 @@ class ScenarioReader {
     }
     if (auto v = top.get("objects")) {
       for (const Value& item : v->items()) sc_.objects.push_back(read_object(item));
+    }
+    if (auto v = top.get("faults")) {
+      for (const Value& item : v->items()) {
+        const Mapping m = item.mapping({"robot", "at", "kind"});
+        FaultSpec f;
+        const Value& rv = m.require("robot");
+        f.robot = rv.identifier();
+        if (std::none_of(sc_.robots.begin(), sc_.robots.end(), [&](const RobotSpec& r) { return r.id == f.robot; })) {
+          rv.fail("no robot '" + f.robot + "' in this scenario");
+        }
+        f.at = m.require("at").non_negative(1e7);
+        const Value& kv = m.require("kind");
+        f.kind = kv.string();
+        if (f.kind != "stop" && f.kind != "silent") kv.fail("must be stop or silent, not '" + f.kind + "'");
+        f.line = item.line();
+        sc_.faults.push_back(f);
+      }
     }
     check_scripts();
     return std::move(sc_);

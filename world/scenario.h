@@ -117,6 +117,16 @@ struct EventRuleSpec {
   double exchange_distance = 1.5;  // m: both people this close at a hand-over
 };
 
+// A scripted fault (issue 11): from `at` seconds a robot stops (its controller no longer runs,
+// its wheels stop: a breakdown) or falls silent (its team messages are lost both ways: a radio
+// failure; it keeps driving).
+struct FaultSpec {
+  std::string robot;
+  double at = 0;
+  std::string kind;  // stop | silent
+  int line = 0;
+};
+
 struct Scenario {
   std::filesystem::path file;     // the scenario file
   std::string name;
@@ -132,6 +142,7 @@ struct Scenario {
   std::vector<RobotSpec> robots;
   std::vector<PersonSpec> people;
   std::vector<ObjectSpec> objects;
+  std::vector<FaultSpec> faults;
 };
 
 // What the parser may look up outside the file.

@@ -597,7 +597,14 @@ Status World::step_person(int i) {
 
 void World::step_robots_control() {
   for (auto& r : robots_) {
-    if (r.controller) {
+    // A scripted breakdown: from its time the controller no longer runs and the wheels stop.
+    bool stopped = false;
+    for (const FaultSpec& f : scenario_.faults) {
+      if (f.kind == "stop" && f.robot == r.spec.id && time_ >= from_seconds(f.at)) stopped = true;
+    }
+    if (stopped) {
+      r.cmd_v = r.cmd_w = 0;
+    } else if (r.controller) {
       struct Cmd : ModelCommand {
         RobotEntity* r;
         SimTime now;

@@ -98,7 +98,13 @@ Status DdsTeamBus::exchange(World& world) {
   };
   std::vector<Out> outs;
   std::vector<std::set<std::pair<std::string, uint64_t>>> expected(nodes_.size());
+  auto silent = [&](const std::string& robot, SimTime t) {
+    for (const auto& [r, from] : options_.silent_from)
+      if (r == robot && to_seconds(t) >= from) return true;
+    return false;
+  };
   for (const TeamMessage& m : sent) {
+    if (silent(m.from, m.sent)) continue;  // never leaves the robot
     auto it = index.find(m.from);
     if (it == index.end()) return internal_error("DDS team bus: no node for robot " + m.from);
     Node& n = nodes_[it->second];
@@ -110,6 +116,7 @@ Status DdsTeamBus::exchange(World& world) {
     for (size_t k = 0; k < nodes_.size(); ++k) {
       if (nodes_[k].robot == m.from) continue;
       if (!m.to.empty() && m.to != nodes_[k].robot) continue;
+      if (silent(nodes_[k].robot, m.sent)) continue;  // written, but the robot hears nothing
       o.to.push_back(k);
       expected[k].insert({m.from, n.number});
     }

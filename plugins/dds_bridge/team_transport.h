@@ -32,6 +32,8 @@ class DdsTeamBus {
   struct Options {
     DomainOptions domain;            // session: default "team-<pid>-<n>", unique to the bus
     double delivery_timeout_s = 10;
+    // Robots whose messages are lost both ways from a time (scripted radio failures).
+    std::vector<std::pair<std::string, double>> silent_from;
   };
   static Result<std::unique_ptr<DdsTeamBus>> create(const std::vector<std::string>& robots, const Options& options);
   ~DdsTeamBus();

@@ -157,6 +157,8 @@ void add_run_command(CLI::App& app) {
       }
       std::vector<std::string> ids;
       for (const RobotSpec& r : scenario->robots) ids.push_back(r.id);
+      for (const FaultSpec& f : scenario->faults)
+        if (f.kind == "silent") to.silent_from.push_back({f.robot, f.at});
       auto b = dds::DdsTeamBus::create(ids, to);
       if (!b) throw Exit{report(b.error())};
       team_bus = std::move(*b);
