@@ -363,19 +363,21 @@ TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
   EXPECT_EQ(hashes[0], hashes[1]) << "the same run, byte for byte";
 }
 
+// Incident 42 (a left bag at (21, 3.3)) put in both robots' inboxes at 20 s, as the transport does.
+void post_incident_at_20s(World& w) {
+  if (w.time() != from_seconds(20.0)) return;
+  RobotTask t;
+  t.id = 42;
+  t.kind = "incident";
+  t.goal = {21.0, 3.3};
+  t.label = "left_bag";
+  for (const char* r : {"robot1", "robot2"}) EXPECT_TRUE(w.post_task(r, t).ok());
+}
+
 // An incident posted to both robots at 20 s; the keeper falls silent at 25 s: the other robot
 // reopens the task and takes it within 5 s.
 TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {
-  auto post = [](World& w) {
-    if (w.time() == from_seconds(20.0)) {
-      RobotTask t;
-      t.id = 42;
-      t.kind = "incident";
-      t.goal = {21.0, 3.3};
-      t.label = "left_bag";
-      for (const char* r : {"robot1", "robot2"}) ASSERT_TRUE(w.post_task(r, t).ok());
-    }
-  };
+  auto post = post_incident_at_20s;
   auto assignments = [](const fs::path& dir) {
     std::vector<std::pair<double, std::string>> out;
     for (const std::string& l : file_lines(dir / "robots.jsonl")) {
@@ -405,16 +407,7 @@ TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {
 
 // The same with a scripted breakdown (faults: in the scenario): the keeper stops at 25 s.
 TEST(Team, ATaskOfARobotThatBreaksDownIsReassignedWithinFiveSeconds) {
-  auto post = [](World& w) {
-    if (w.time() == from_seconds(20.0)) {
-      RobotTask t;
-      t.id = 42;
-      t.kind = "incident";
-      t.goal = {21.0, 3.3};
-      t.label = "left_bag";
-      for (const char* r : {"robot1", "robot2"}) ASSERT_TRUE(w.post_task(r, t).ok());
-    }
-  };
+  auto post = post_incident_at_20s;
   for (const std::string keeper : {"robot1", "robot2"}) {
     std::string text = team_scenario("cyclic", 40) + "faults:\n  - {robot: " + keeper + ", at: 25, kind: stop}\n";
     auto sc = parse_scenario(text, test::source_dir() / "scenarios" / "inline_team.yaml");

@@ -342,6 +342,11 @@ class Team : public Plugin {
     const auto& kept = tokens_->kept();
     if (std::any_of(kept.begin(), kept.end(), [&](const auto& t) { return t.id == task_.id; })) return;
     cmd.report(base_report("task_released", task_.kind + " " + std::to_string(task_.id) + ": another robot keeps it"));
+    back_to_patrol();
+  }
+
+  // Off the task, back on patrol (the team takes me in again at the next re-form).
+  void back_to_patrol() {
     task_ = {};
     guard_until_ = -1;
     responding_ = false;
@@ -514,13 +519,7 @@ class Team : public Plugin {
     cmd.send(done);
     incidents_[task_.id].done = true;
     tokens_->forget(task_.id);
-    task_ = {};
-    guard_until_ = -1;
-    responding_ = false;
-    role_ = "patrol";
-    target_ = -1;
-    formed_ = false;
-    nav_.halt();
+    back_to_patrol();
     // Next queued task, highest priority first (cancelled or done ones dropped).
     queue_.erase(std::remove_if(queue_.begin(), queue_.end(),
                                 [&](const auto& q) { return incidents_[q.id].done || incidents_[q.id].cancelled; }),
