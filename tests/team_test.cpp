@@ -439,6 +439,65 @@ TEST(Team, ATaskOfARobotThatBreaksDownIsReassignedWithinFiveSeconds) {
   }
 }
 
+// One robot, a left bag at 20 s and a bag taken at 22 s: the bag taken (higher priority)
+// preempts, the left bag is served after it; with the scenario's priorities reversed, not.
+TEST(Team, AHigherPriorityIncidentPreemptsAndTheOtherIsServedAfter) {
+  for (const bool reversed : {false, true}) {
+    std::string text = team_scenario("cyclic", 80);
+    text = text.substr(0, text.find("  - id: robot2"));  // robot1 alone
+    text.replace(text.find("speed: 1.0}"), 11,
+                 std::string("speed: 1.0, guard_time: 5") + (reversed ? ", priorities: [left_bag=5]}" : "}"));
+    auto sc = parse_scenario(text, test::source_dir() / "scenarios" / "inline_team.yaml");
+    ASSERT_TRUE(sc.ok()) << sc.error().str();
+    const fs::path dir = test::fresh_temp_dir("team", reversed ? "prio_rev" : "prio");
+    RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
+    ro.out_dir = dir;
+    ro.video = false;
+    ro.before_step = [](World& w) {
+      RobotTask t;
+      t.kind = "incident";
+      if (w.time() == from_seconds(20.0)) {
+        t.id = 1;
+        t.goal = {21.0, 3.3};
+        t.label = "left_bag";
+      } else if (w.time() == from_seconds(22.0)) {
+        t.id = 2;
+        t.goal = {30.0, 3.1};
+        t.label = "bag_taken";
+      } else {
+        return;
+      }
+      EXPECT_TRUE(w.post_task("robot1", t).ok());
+    };
+    ASSERT_TRUE(run_scenario(*sc, ro).ok());
+    std::vector<std::string> events;
+    for (const std::string& l : file_lines(dir / "robots.jsonl")) {
+      auto j = nlohmann::json::parse(l);
+      const std::string e = j.value("event", "");
+      if (e == "task_assigned" || e == "task_preempted" || e == "response_done") {
+        events.push_back(e + " " + std::to_string(j["task_id"].get<uint64_t>()));
+      }
+    }
+    const std::vector<std::string> want =
+        reversed ? std::vector<std::string>{"task_assigned 1", "response_done 1", "task_assigned 2", "response_done 2"}
+                 : std::vector<std::string>{"task_assigned 1", "task_preempted 1", "task_assigned 2", "response_done 2",
+                                            "task_assigned 1", "response_done 1"};
+    EXPECT_EQ(events, want) << (reversed ? "left_bag=5" : "default priorities");
+    fs::remove_all(dir);
+  }
+  // A malformed priority names the key.
+  std::string text = team_scenario("cyclic", 5);
+  text.replace(text.find("speed: 1.0}"), 11, "speed: 1.0, priorities: [left_bag]}");
+  auto sc = parse_scenario(text, test::source_dir() / "scenarios" / "inline_team.yaml");
+  ASSERT_TRUE(sc.ok());
+  WorldOptions wo;
+  wo.plugins = builtin_plugin_registry();
+  auto w = World::create(*sc, wo);
+  ASSERT_FALSE(w.ok());
+  EXPECT_NE(w.error().str().find("params.priorities"), std::string::npos) << w.error().str();
+}
+
 TEST(Team, FaultsAreCheckedNamingTheLineAndKey) {
   auto err = [](const std::string& faults) {
     auto sc = parse_scenario(team_scenario("cyclic", 10) + "faults:\n" + faults,

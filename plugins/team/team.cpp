@@ -93,6 +93,8 @@ class Team : public Plugin {
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
         {"standoff", ParamType::kNumber, 1.5, 0.3, 10.0, "respond: stop this far from the incident, facing it (m)"},
         {"guard_time", ParamType::kNumber, 60.0, 0.0, 36000.0, "respond: guard this long unless the incident is cancelled first (s)"},
+        {"priorities", ParamType::kStringList, std::vector<std::string>{}, 0, 0,
+         "incident priorities as KIND=N (larger first), e.g. [left_bag=3]; unset kinds keep the defaults (bag_taken 3, unauthorised_object 2, left_bag 1, exchange 0)"},
         {"accept_margin", ParamType::kNumber, 0.1, 0.0, 10.0, "token passing: keep a task within this share of the best estimated cost left"},
         {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
@@ -127,6 +129,16 @@ class Team : public Plugin {
     member_timeout_ = from_seconds(p.number("member_timeout"));
     pass_offset_ = p.number("pass_offset");
     standoff_ = p.number("standoff");
+    priorities_.clear();
+    for (const std::string& kv : p.strings("priorities")) {
+      const auto eq = kv.find('=');
+      char* end = nullptr;
+      const long v = eq == std::string::npos ? 0 : std::strtol(kv.c_str() + eq + 1, &end, 10);
+      if (eq == std::string::npos || eq == 0 || end == kv.c_str() + eq + 1 || *end != '\0') {
+        return bad_input(ctx.scenario_file, ctx.line, "params.priorities", "'" + kv + "' is not KIND=N");
+      }
+      priorities_[kv.substr(0, eq)] = static_cast<int>(v);
+    }
     guard_time_ = from_seconds(p.number("guard_time"));
     token_params_.accept_margin = p.number("accept_margin");
     spacing_hold_ = p.boolean("spacing_hold");
@@ -385,11 +397,16 @@ class Team : public Plugin {
     }
     if (incidents_.count(t.id)) return;
     Known k;
-    k.task = {t.id, t.label, planning::allocation::default_priority(t.label), t.goal};
+    auto pr = priorities_.find(t.label);
+    k.task = {t.id, t.label, pr != priorities_.end() ? pr->second : planning::allocation::default_priority(t.label), t.goal};
     k.heard = now_;
     incidents_[t.id] = k;
-    const auto members = token_members();
-    if (!members.empty() && members.front() == ctx_.model_id) {
+    // The token's creator: the first by name of every robot heard (responding ones too).
+    std::string first = ctx_.model_id;
+    for (const auto& [id, mate] : mates_) {
+      if (now_ - mate.heard <= member_timeout_ && id < first) first = id;
+    }
+    if (first == ctx_.model_id) {
       tokens_->create(k.task, knowledge_.now);
       incidents_[t.id].started = true;
     }
@@ -398,7 +415,7 @@ class Team : public Plugin {
   void start_overdue_tokens() {
     for (auto& [id, k] : incidents_) {
       if (k.started || k.cancelled || k.done || tokens_->keepers().count(id)) continue;
-      if (now_ - k.heard >= from_seconds(2.0) && patrolling()) {
+      if (now_ - k.heard >= from_seconds(2.0)) {
         tokens_->create(k.task, knowledge_.now);
         k.started = true;
       }
@@ -446,10 +463,23 @@ class Team : public Plugin {
 
   // A task the token left with me: respond.
   void take_kept(ModelCommand& cmd) {
+    // New tasks the token left with me, highest priority first; one of higher priority than
+    // the task under way preempts it (that one goes back to the queue).
+    std::vector<planning::allocation::TokenTask> fresh;
     for (const auto& t : tokens_->kept()) {
       if (!handled_.insert(t.id).second) continue;
       auto it = incidents_.find(t.id);
       if (it != incidents_.end() && it->second.cancelled) continue;
+      fresh.push_back(t);
+    }
+    std::stable_sort(fresh.begin(), fresh.end(), [](const auto& a, const auto& b) { return a.priority > b.priority; });
+    for (const auto& t : fresh) {
+      if (task_.id != 0 && t.priority > task_.priority) {
+        cmd.report(base_report("task_preempted", task_.kind + " " + std::to_string(task_.id) + " for " + t.kind + " " +
+                                                     std::to_string(t.id)));
+        queue_.push_back(task_);
+        task_ = {};
+      }
       if (task_.id != 0) {
         queue_.push_back(t);  // busy: served after the current one (highest priority first)
         continue;
@@ -758,6 +788,7 @@ class Team : public Plugin {
     bool started = false, cancelled = false, done = false;
   };
   std::vector<planning::allocation::TokenTask> queue_;
+  std::map<std::string, int> priorities_;
   SimTime keeper_timeout_ = from_seconds(2.0);
   planning::allocation::TokenParams token_params_;
   std::unique_ptr<planning::allocation::TokenAgent> tokens_;
