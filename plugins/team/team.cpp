@@ -173,7 +173,6 @@ class Team : public Plugin {
     handled_.clear();
     task_ = {};
     guard_until_ = -1;
-    facing_ = false;
   }
 
   void update(const WorldView& world, ModelCommand& cmd) override {
@@ -214,7 +213,7 @@ class Team : public Plugin {
     }
     if (nav_.is_localized()) {
       pass_oncoming();
-      note_visits(cmd);
+      note_visits();
       if (patrolling()) {
         update_team();
         if (formed_) patrol(cmd);
@@ -495,8 +494,7 @@ class Team : public Plugin {
       role_ = "respond";
       holding_ = yielding_ = false;
       guard_until_ = -1;
-      facing_ = false;
-      standoff_goal_ = standoff_point(t.where);
+        standoff_goal_ = standoff_point(t.where);
       nav_.go_to(standoff_goal_, t.id, "incident " + std::to_string(t.id), false);
       RobotReport r = base_report("task_assigned", t.kind + " " + std::to_string(t.id));
       cmd.report(r);
@@ -623,7 +621,7 @@ class Team : public Plugin {
   }
 
   // Vertices passed (entered within the visit radius of the estimate), told to the team.
-  void note_visits(ModelCommand& cmd) {
+  void note_visits() {
     const Vec2 p = nav_.pose().position();
     for (size_t i = 0; i < setup_->graph.size(); ++i) {
       const double d = (setup_->graph.vertex(i).position - p).norm();
@@ -635,7 +633,6 @@ class Team : public Plugin {
         inside_[i] = 0;
       }
     }
-    (void)cmd;
   }
 
   void tell_visit(ModelCommand& cmd, int vertex) {
@@ -798,7 +795,7 @@ class Team : public Plugin {
   Vec2 standoff_goal_;
   double standoff_ = 1.5;
   SimTime guard_time_ = 0, guard_until_ = -1;
-  bool facing_ = false, own_velocity_ = false;
+  bool own_velocity_ = false;
 };
 
 }  // namespace
