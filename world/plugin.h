@@ -23,7 +23,7 @@
 namespace vigil {
 
 // Bumped whenever the Plugin interface changes; a library built for another version is refused.
-constexpr int kPluginAbiVersion = 3;
+constexpr int kPluginAbiVersion = 4;
 
 // What a robot's controller may read of its own robot: its sensors, never the ground truth
 // (the true pose is the world's, for scoring only).
@@ -119,6 +119,9 @@ struct PluginContext {
   // The robot's body, for controllers: where its laser sits, how big and fast it is.
   Pose2 laser_mount;                            // laser pose in the robot frame
   double robot_radius = 0;                      // disc covering the footprint (m)
+  // Half the footprint's width across its direction of travel, from the base frame's x axis
+  // (m): what a robot driving straight sweeps to either side. 0: use robot_radius.
+  double body_half_width = 0;
   double max_speed = 0, max_turn_rate = 0;      // m/s, rad/s
   Pose2 start;                                  // where the robot is placed (the scenario's)
   bool start_known = true;                      // false: the controller must localise globally

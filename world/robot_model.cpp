@@ -84,6 +84,10 @@ Result<RobotModel> load_robot_model(const std::filesystem::path& urdf_path) {
     out.has_laser_link = true;
     out.laser_offset = link_offset(*model, "laser", base->name);
   }
+  if (model->getLink("camera")) {
+    out.has_camera_link = true;
+    out.camera_offset = link_offset(*model, "camera", base->name);
+  }
 
   std::vector<urdf::LinkSharedPtr> links;
   model->getLinks(links);

@@ -1,6 +1,6 @@
 // Robot descriptions read from URDF with urdfdom: the planar footprint (from base_link's
-// collision geometry), the laser mount (the link named "laser", if any) and the visual parts the
-// renderer draws.
+// collision geometry), the laser mount (the link named "laser", if any), the inspection camera
+// (the link named "camera", if any) and the visual parts the renderer draws.
 #pragma once
 
 #include <filesystem>
@@ -31,6 +31,8 @@ struct RobotModel {
   Vec2 footprint_offset;               // footprint centre in the base frame
   Vec3 laser_offset;                   // laser origin in the base frame (zero when no laser link)
   bool has_laser_link = false;
+  Vec3 camera_offset;                  // the link named "camera" (the inspection camera), base frame
+  bool has_camera_link = false;
   double height = 0.5;                 // top of the tallest visual part
   std::vector<RobotVisual> visuals;
 };

@@ -127,6 +127,9 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     for (const RobotReport& rep : world.drain_reports()) {
       if (robots_log) robots_log << robot_report_json(rep) << "\n";
       if (options.on_report) options.on_report(rep);
+      for (RunObserver* obs : options.observers) {
+        if (Status st = obs->on_report(world, rep); !st) return st.error();
+      }
     }
     for (RunObserver* obs : options.observers) {
       if (Status s = obs->after_step(world); !s) return s.error();

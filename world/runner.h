@@ -17,12 +17,14 @@
 
 namespace vigil {
 
-// Something that watches a run (a camera writing its video, a vision pipeline): called once at
-// the start, after every step, and once at the end, with the world as it is then.
+// Something that watches a run (a camera writing its video, a vision pipeline, a robot's
+// camera): called once at the start, for every report a robot's controller made, after every
+// step, and once at the end, with the world as it is then.
 class RunObserver {
  public:
   virtual ~RunObserver() = default;
   virtual Status start(const World& world, const std::filesystem::path& out_dir) { return Status::Ok(); }
+  virtual Status on_report(const World& world, const RobotReport& report) { return Status::Ok(); }
   virtual Status after_step(const World& world) = 0;
   virtual Status finish(const World& world) { return Status::Ok(); }
 };

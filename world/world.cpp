@@ -248,6 +248,8 @@ Status World::build(const WorldOptions& options) {
       ctx.seed = Rng::stream(scenario_.seed, "plugin:" + r.spec.id).next();
       ctx.laser_mount = {r.model.laser_offset.x, r.model.laser_offset.y, 0.0};
       ctx.robot_radius = r.model.radius + r.model.footprint_offset.norm();
+      ctx.body_half_width = (r.model.footprint == FootprintShape::kBox ? r.model.half_y : r.model.radius) +
+                            std::abs(r.model.footprint_offset.y);
       ctx.max_speed = r.spec.max_speed;
       ctx.max_turn_rate = r.spec.max_turn_rate;
       ctx.start = r.spec.start;

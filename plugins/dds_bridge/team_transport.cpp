@@ -170,4 +170,64 @@ Status DdsTeamBus::exchange(World& world) {
   return Status::Ok();
 }
 
+// ---- DdsTeamLink ----
+
+Result<std::unique_ptr<DdsTeamLink>> DdsTeamLink::create(const std::string& robot, const Options& options) {
+  if (robot.empty()) return bad_input("", 0, "robot", "must not be empty");
+  std::unique_ptr<DdsTeamLink> link(new DdsTeamLink());
+  link->robot_ = robot;
+  link->options_ = options;
+  auto p = Participant::create(options.domain);
+  if (!p) return p.error();
+  link->participant_ = std::move(*p);
+  auto w = Writer::create(*link->participant_, Topic::kTeam);
+  if (!w) return w.error();
+  link->writer_ = std::move(*w);
+  auto rd = Reader::create(*link->participant_, Topic::kTeam);
+  if (!rd) return rd.error();
+  link->reader_ = std::move(*rd);
+  return link;
+}
+
+DdsTeamLink::~DdsTeamLink() = default;
+
+int DdsTeamLink::wait_for_mates(int n, double timeout_s) {
+  // Our own reader matches our writer too.
+  return writer_->wait_for_readers(n + 1, timeout_s) - 1;
+}
+
+Status DdsTeamLink::exchange(World& world) {
+  const double now = to_seconds(world.time());
+  const bool silent = options_.silent_from >= 0 && now >= options_.silent_from;
+  for (const TeamMessage& m : world.drain_sent()) {
+    if (m.from != robot_ || silent) continue;
+    TeamMessageOut out;
+    to_message(m, ++number_, &out);
+    if (Status s = writer_->write_raw(&out.msg); !s) return s;
+    ++written_;
+  }
+  std::vector<TeamMessage> in;
+  Status st = reader_->take_each([&](const void* sample, const dds_sample_info_t&) {
+    uint64_t number = 0;
+    auto m = from_message(*static_cast<const vigil_msgs_TeamMessage*>(sample), &number);
+    if (!m) {
+      ++rejected_;
+      return;
+    }
+    if (m->from == robot_ || (!m->to.empty() && m->to != robot_)) return;
+    if (to_seconds(m->sent) < now - options_.stale_after_s) {
+      ++stale_;
+      return;
+    }
+    in.push_back(std::move(*m));
+  });
+  if (!st) return st;
+  if (silent) return Status::Ok();
+  for (TeamMessage& m : in) {
+    if (Status s = world.deliver(robot_, std::move(m)); !s) return s;
+    ++delivered_;
+  }
+  return Status::Ok();
+}
+
 }  // namespace vigil::dds

@@ -57,4 +57,39 @@ class DdsTeamBus {
   uint64_t written_ = 0, delivered_ = 0, rejected_ = 0;
 };
 
+// One robot's side of the team topic, for a process that runs that robot alone (`vigil
+// robot-node`): no lockstep. exchange() writes what the robot's controller sent and delivers
+// whatever has arrived for it (addressed to it or to everyone, from others), in arrival order.
+// Messages stamped more than `stale_after_s` of simulated time before the robot's clock are
+// dropped (counted): on joining, a reader receives the live writers' durable history, which
+// belongs to a past the robot did not take part in. The processes share a clock by starting
+// their worlds at one epoch (docs/TEAM.md).
+class DdsTeamLink {
+ public:
+  struct Options {
+    DomainOptions domain;        // session: the system's (partition vigil.<session>)
+    double stale_after_s = 2.0;
+    double silent_from = -1;     // s: from this time nothing leaves or reaches the robot (< 0: never)
+  };
+  static Result<std::unique_ptr<DdsTeamLink>> create(const std::string& robot, const Options& options);
+  ~DdsTeamLink();
+  Status exchange(World& world);
+  // Waits up to `timeout_s` for `n` other robots' readers to match this robot's writer.
+  int wait_for_mates(int n, double timeout_s);
+  uint64_t written() const { return written_; }
+  uint64_t delivered() const { return delivered_; }
+  uint64_t rejected() const { return rejected_; }
+  uint64_t stale() const { return stale_; }
+
+ private:
+  DdsTeamLink() = default;
+  std::string robot_;
+  Options options_;
+  std::unique_ptr<Participant> participant_;
+  std::unique_ptr<Writer> writer_;
+  std::unique_ptr<Reader> reader_;
+  uint64_t number_ = 0;
+  uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, stale_ = 0;
+};
+
 }  // namespace vigil::dds

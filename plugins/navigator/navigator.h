@@ -419,9 +419,21 @@ class Navigator : public Plugin {
     }
     path_ = std::move(r.path);
     path_index_ = 0;
+    // The new route is the reference progress is measured from (the stuck timer runs on).
+    progress_best_ = remaining_length(pose_.position());
     avoiding_ = r.used_motion_level;
     if (planned_length_ < 0) planned_length_ = r.length;
     return true;
+  }
+
+  // What is left of the route from `pos`: to the path's next point, then along it; the
+  // straight line to the goal when there is no path.
+  double remaining_length(Vec2 pos) const {
+    if (path_.empty()) return goal_ ? (*goal_ - pos).norm() : 0.0;
+    size_t k = std::min(path_index_ + 1, path_.size() - 1);
+    double len = (path_[k] - pos).norm();
+    for (size_t i = k; i + 1 < path_.size(); ++i) len += (path_[i + 1] - path_[i]).norm();
+    return len;
   }
 
   // True when the next few metres of the path pass within clearance of what the laser sees.
@@ -444,8 +456,12 @@ class Navigator : public Plugin {
       finish_goal(cmd, true, "");
       return;
     }
-    if (to_goal < progress_best_ - 0.25) {
-      progress_best_ = to_goal;
+    // Progress is measured along the route (what is left of the planned path), not as the
+    // straight line to the goal: a route that first leads away (out of a room by its door)
+    // is progress too.
+    const double remaining = remaining_length(pos);
+    if (remaining < progress_best_ - 0.25) {
+      progress_best_ = remaining;
       progress_time_ = now_;
     }
     // Recovery under way: back off, then turn towards the goal; then replan.
@@ -458,7 +474,7 @@ class Navigator : public Plugin {
       }
       if (now_ < recovery_until_) {
         const double err = wrap_angle(std::atan2(goal_->y - pos.y, goal_->x - pos.x) - pose_.yaw);
-        *w = std::clamp(gain_ * err, -0.8, 0.8);
+        *w = turn_clear(me) ? std::clamp(gain_ * err, -0.8, 0.8) : 0.0;
         return;
       }
       recovery_until_ = -1;
@@ -507,18 +523,21 @@ class Navigator : public Plugin {
       blocked_since_ = -1;
     }
     mode_ = passing ? "passing" : avoiding_ ? "avoiding" : "driving";
-    // Pure pursuit: the carrot is the first path point at least `lookahead` away, past the
-    // closest segment.
-    while (path_index_ + 1 < path_.size() && (path_[path_index_ + 1] - pos).norm() < lookahead_) ++path_index_;
+    // Pure pursuit: the carrot is the first path point at least the look-ahead away, past the
+    // closest segment. Close to something (a door jamb, a corner) the look-ahead shrinks, down
+    // to 40 %, so the robot cuts the path's corners less where there is no room for it (after
+    // nav2's regulated pure pursuit).
+    const double lookahead = lookahead_ * std::clamp((nearest_return(me) - ctx_.robot_radius) / 0.5, 0.4, 1.0);
+    while (path_index_ + 1 < path_.size() && (path_[path_index_ + 1] - pos).norm() < lookahead) ++path_index_;
     Vec2 carrot = path_.back();
     Vec2 carrot_dir{0, 0};
     for (size_t i = path_index_ + 1; i < path_.size(); ++i) {
-      if ((path_[i] - pos).norm() >= lookahead_) {
+      if ((path_[i] - pos).norm() >= lookahead) {
         // Point on segment (i-1, i) at the lookahead distance.
         const Vec2 a = path_[i - 1], b = path_[i];
         const Vec2 d = b - a;
         const Vec2 f = a - pos;
-        const double A = d.dot(d), B = 2 * f.dot(d), C = f.dot(f) - lookahead_ * lookahead_;
+        const double A = d.dot(d), B = 2 * f.dot(d), C = f.dot(f) - lookahead * lookahead;
         const double disc = B * B - 4 * A * C;
         double t = 1.0;
         if (A > 0 && disc >= 0) t = std::clamp((-B + std::sqrt(disc)) / (2 * A), 0.0, 1.0);
@@ -569,9 +588,10 @@ class Navigator : public Plugin {
     *v *= factor;
     if (factor == 0.0) {
       mode_ = "waiting";
-      // Turning in place towards the path is still allowed: the footprint is a disc, turning
-      // sweeps nothing new (and it lines the robot up with a path that runs beside a wall).
-      if (std::abs(err) <= 0.05) *w = 0;
+      // Turning in place towards the path is still allowed (it lines the robot up with a path
+      // that runs beside a wall) while nothing is within the disc the body sweeps turning (a
+      // box's corners reach out to the disc: a door jamb beside an Erratic stops the turn).
+      if (std::abs(err) <= 0.05 || !turn_clear(me)) *w = 0;
     }
   }
 
@@ -579,9 +599,12 @@ class Navigator : public Plugin {
   double clear_ahead(const RobotState& me) const {
     if (!me.scan) return 1e9;
     const LaserScan& s = *me.scan;
-    // The body's own width and 2 cm: paths keep inflation_padding (5 cm) more from walls, so a
-    // wall beside a path that hugs it is not taken for something in the way.
-    const double half_width = ctx_.robot_radius + 0.02;
+    // The body's own width and 2 cm: paths keep inflation_padding (5 cm) more from walls than
+    // the disc covering the body, so a wall beside a path that hugs it is not taken for
+    // something in the way. A box-shaped body driving forward sweeps only its own half width
+    // (a doorway one metre wide leaves an Erratic 10 cm to spare each side, the disc 3 cm).
+    const double body = ctx_.body_half_width > 0 ? std::min(ctx_.body_half_width, ctx_.robot_radius) : ctx_.robot_radius;
+    const double half_width = body + 0.02;
     double best = 1e9;
     for (size_t i = 0; i < s.ranges.size(); ++i) {
       const double r = s.ranges[i];
@@ -594,6 +617,38 @@ class Navigator : public Plugin {
       best = std::min(best, x - ctx_.robot_radius);
     }
     return best;
+  }
+
+  // Distance from the body's centre to the nearest laser return (infinite without a scan).
+  double nearest_return(const RobotState& me) const {
+    double best = 1e9;
+    if (!me.scan) return best;
+    const LaserScan& s = *me.scan;
+    for (size_t i = 0; i < s.ranges.size(); ++i) {
+      const double r = s.ranges[i];
+      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment;
+      best = std::min(best, std::hypot(ctx_.laser_mount.x + r * std::cos(a + ctx_.laser_mount.yaw),
+                                       ctx_.laser_mount.y + r * std::sin(a + ctx_.laser_mount.yaw)));
+    }
+    return best;
+  }
+
+  // Nothing the laser sees within the disc the body sweeps turning in place, and 3 cm (a disc
+  // body sweeps nothing new turning: always clear).
+  bool turn_clear(const RobotState& me) const {
+    if (!me.scan || ctx_.body_half_width <= 0 || ctx_.body_half_width >= ctx_.robot_radius - 1e-3) return true;
+    const LaserScan& s = *me.scan;
+    const double reach = ctx_.robot_radius + 0.03;
+    for (size_t i = 0; i < s.ranges.size(); ++i) {
+      const double r = s.ranges[i];
+      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment;
+      const double x = ctx_.laser_mount.x + r * std::cos(a + ctx_.laser_mount.yaw);
+      const double y = ctx_.laser_mount.y + r * std::sin(a + ctx_.laser_mount.yaw);
+      if (std::hypot(x, y) < reach) return false;
+    }
+    return true;
   }
 
   // The laser sees no rear; backing off is allowed only a short, slow way (the recovery's

@@ -95,6 +95,8 @@ class Team : public Plugin {
         {"guard_time", ParamType::kNumber, 60.0, 0.0, 36000.0, "respond: guard this long unless the incident is cancelled first (s)"},
         {"priorities", ParamType::kStringList, std::vector<std::string>{}, 0, 0,
          "incident priorities as KIND=N (larger first), e.g. [left_bag=3]; unset kinds keep the defaults (bag_taken 3, unauthorised_object 2, left_bag 1, exchange 0)"},
+        {"picture_kinds", ParamType::kStringList, std::vector<std::string>{"bag_taken"}, 0, 0,
+         "respond: incident kinds at which the robot takes a high-resolution picture once it faces the event"},
         {"accept_margin", ParamType::kNumber, 0.1, 0.0, 10.0, "token passing: keep a task within this share of the best estimated cost left"},
         {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
@@ -140,6 +142,8 @@ class Team : public Plugin {
       priorities_[kv.substr(0, eq)] = static_cast<int>(v);
     }
     guard_time_ = from_seconds(p.number("guard_time"));
+    picture_kinds_.clear();
+    for (const std::string& k : p.strings("picture_kinds")) picture_kinds_.insert(k);
     token_params_.accept_margin = p.number("accept_margin");
     spacing_hold_ = p.boolean("spacing_hold");
     pass_distance_ = p.number("pass_distance");
@@ -173,6 +177,7 @@ class Team : public Plugin {
     handled_.clear();
     task_ = {};
     guard_until_ = -1;
+    pictured_ = false;
   }
 
   void update(const WorldView& world, ModelCommand& cmd) override {
@@ -215,7 +220,7 @@ class Team : public Plugin {
       pass_oncoming();
       note_visits();
       if (patrolling()) {
-        update_team();
+        update_team(cmd);
         if (formed_) patrol(cmd);
       } else if (task_.id != 0) {
         own_velocity_ = respond(cmd);  // guarding: the velocity is ours this step
@@ -305,7 +310,7 @@ class Team : public Plugin {
 
   // The team: me and the mates heard from recently that are patrolling. Re-formed (shares
   // recomputed) when that set changes.
-  void update_team() {
+  void update_team(ModelCommand& cmd) {
     if (now_ < discovery_) return;
     std::vector<std::string> members{ctx_.model_id};
     for (const auto& [id, m] : mates_) {
@@ -317,6 +322,12 @@ class Team : public Plugin {
     }
     std::sort(members.begin(), members.end());
     if (formed_ && members == team_) return;
+    if (members != team_) {
+      // Who patrols with me now (a mate joined, left or came back): a report, for the logs.
+      std::string list;
+      for (const auto& m : members) list += (list.empty() ? "" : ",") + m;
+      cmd.report(base_report("team_formed", list));
+    }
     team_ = members;
     std::vector<Vec2> where;
     int me = 0;
@@ -494,7 +505,8 @@ class Team : public Plugin {
       role_ = "respond";
       holding_ = yielding_ = false;
       guard_until_ = -1;
-        standoff_goal_ = standoff_point(t.where);
+      pictured_ = false;
+      standoff_goal_ = standoff_point(t.where);
       nav_.go_to(standoff_goal_, t.id, "incident " + std::to_string(t.id), false);
       RobotReport r = base_report("task_assigned", t.kind + " " + std::to_string(t.id));
       cmd.report(r);
@@ -535,7 +547,17 @@ class Team : public Plugin {
     // Face the incident (the disc turns in place).
     const Pose2 me = nav_.pose();
     const double err = wrap_angle(std::atan2(task_.where.y - me.y, task_.where.x - me.x) - me.yaw);
-    cmd.set_velocity(0, std::abs(err) > 0.05 ? std::clamp(2.0 * err, -ctx_.max_turn_rate, ctx_.max_turn_rate) : 0.0);
+    const bool facing = std::abs(err) <= 0.05;
+    cmd.set_velocity(0, facing ? 0.0 : std::clamp(2.0 * err, -ctx_.max_turn_rate, ctx_.max_turn_rate));
+    // Facing it: the picture, once per response, for the kinds that want one. Whoever owns the
+    // robot's camera takes it (world/runner.h RunObserver::on_report; plugins/stereo_camera/
+    // robot_camera.h): the report carries the target (goal) and the incident (detail).
+    if (facing && !pictured_ && picture_kinds_.count(task_.kind)) {
+      pictured_ = true;
+      RobotReport r = base_report("take_picture", task_.kind + " " + std::to_string(task_.id));
+      r.goal = task_.where;
+      cmd.report(r);
+    }
     return true;
   }
 
@@ -795,6 +817,8 @@ class Team : public Plugin {
   Vec2 standoff_goal_;
   double standoff_ = 1.5;
   SimTime guard_time_ = 0, guard_until_ = -1;
+  std::set<std::string> picture_kinds_;
+  bool pictured_ = false;
   bool own_velocity_ = false;
 };
 

@@ -35,6 +35,7 @@
 #include "vision/event_eval.h"
 #include "vision/map_track_eval.h"
 #include "vision/mot_metrics.h"
+#include "vision/stereo_camera_model.h"
 #include "vision/track_io.h"
 #include "world/ranger.h"
 #include "world/scenario.h"
@@ -213,7 +214,9 @@ void evaluate_run_response(const fs::path& dir, const std::string& scenario_file
   const auto reports = read_lines(dir / "robots.jsonl");
   // True positions per tick.
   std::vector<std::pair<int64_t, std::map<std::string, Vec2>>> ticks;
+  std::vector<nlohmann::json> truth_events;
   for (const auto& j : read_lines(dir / "ground_truth.jsonl")) {
+    if (j.value("type", "") == "event") truth_events.push_back(j);
     if (j.value("type", "") != "tick") continue;
     std::map<std::string, Vec2> at;
     for (const auto& e : j["entities"])
@@ -229,8 +232,8 @@ void evaluate_run_response(const fs::path& dir, const std::string& scenario_file
     return best;
   };
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
-  std::printf("response (%s)\n%-10s %-20s %-8s %9s %9s %9s %10s %10s %8s\n", scenario_file.c_str(), "incident", "kind",
-              "robot", "assign s", "arrive s", "travel s", "best s", "travel/best", "cost/best");
+  std::printf("response (%s)\n%-10s %-20s %-8s %9s %9s %9s %10s %10s %8s %8s\n", scenario_file.c_str(), "incident", "kind",
+              "robot", "assign s", "arrive s", "travel s", "best s", "travel/best", "cost/best", "picture");
   for (const auto& ev : events) {
     if (ev.value("cancelled", false)) continue;
     const uint64_t id = ev.value("id", uint64_t{0});
@@ -287,14 +290,58 @@ void evaluate_run_response(const fs::path& dir, const std::string& scenario_file
     } else {
       r["arrived"] = false;
     }
-    r["picture"] = false;  // not built yet (docs/TEAM.md)
+    // The picture: pictures/<incident>_<robot>.json; the event in view when its published
+    // position and the nearest true event of its kind (ground truth) project into the image.
+    const fs::path side = dir / "pictures" / (std::to_string(id) + "_" + robot + ".json");
+    r["picture"] = false;
+    if (fs::exists(side)) {
+      std::ifstream in(side);
+      auto pj = nlohmann::json::parse(in, nullptr, false);
+      if (!pj.is_discarded() && pj.contains("camera") && pj.contains("image") && fs::exists(dir / "pictures" / pj["image"].get<std::string>())) {
+        r["picture"] = true;
+        r["picture_file"] = (fs::path("pictures") / pj["image"].get<std::string>()).string();
+        const auto& c = pj["camera"];
+        vision::CameraPose cp;
+        cp.position = {c["position"][0].get<double>(), c["position"][1].get<double>(), c["position"][2].get<double>()};
+        cp.yaw = c["yaw"].get<double>();
+        cp.pitch = c["pitch"].get<double>();
+        vision::Intrinsics k;
+        k.width = c["width"].get<int>();
+        k.height = c["height"].get<int>();
+        k.fx = c["fx"].get<double>();
+        k.fy = c["fy"].get<double>();
+        k.cx = c["cx"].get<double>();
+        k.cy = c["cy"].get<double>();
+        const vision::StereoCameraModel cam(k, 0.09, cp);
+        auto in_view = [&](Vec2 p) {
+          Eigen::Vector2d px;
+          return cam.project_map(Eigen::Vector3d(p.x, p.y, 0.3), &px) && px.x() >= 0 && px.y() >= 0 &&
+                 px.x() < k.width && px.y() < k.height;
+        };
+        r["event_in_picture"] = in_view(where);
+        // The true event of this kind nearest the published position.
+        double bd = std::numeric_limits<double>::infinity();
+        Vec2 truth;
+        for (const auto& g : truth_events) {
+          if (g.value("kind", "") != r["kind"].get<std::string>()) continue;
+          const Vec2 gp{g.value("x", 0.0), g.value("y", 0.0)};
+          if ((gp - where).norm() < bd) {
+            bd = (gp - where).norm();
+            truth = gp;
+          }
+        }
+        if (std::isfinite(bd)) r["true_event_in_picture"] = in_view(truth);
+        r["picture_entities"] = pj.value("entities", nlohmann::json::array());
+      }
+    }
     list.push_back(r);
-    std::printf("%-10llu %-20s %-8s %9.2f %9s %9s %9.1f %10s %8.2f\n", static_cast<unsigned long long>(id),
+    const char* pic = !r["picture"].get<bool>() ? "-" : r.value("event_in_picture", false) ? "in view" : "missed";
+    std::printf("%-10llu %-20s %-8s %9.2f %9s %9s %9.1f %10s %8.2f %8s\n", static_cast<unsigned long long>(id),
                 r["kind"].get<std::string>().c_str(), robot.c_str(), (ta - t0) * 1e-9,
                 arrived ? std::to_string(((*arrived)["t_ns"].get<int64_t>() - t0) * 1e-9).substr(0, 6).c_str() : "-",
                 arrived ? std::to_string(r["travel_s"].get<double>()).substr(0, 6).c_str() : "-", best,
                 arrived ? std::to_string(r["travel_over_best"].get<double>()).substr(0, 5).c_str() : "-",
-                r["chosen_cost_over_best"].get<double>());
+                r["chosen_cost_over_best"].get<double>(), pic);
   }
   (*eval)["response"] = list;
 }

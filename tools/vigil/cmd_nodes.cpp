@@ -5,12 +5,16 @@
 //   vigil server SCENARIO                    the video server: checks, map frame, merging; publishes
 //                                            incidents and writes them to --out/events.jsonl
 //   vigil events                             subscribes to incidents and prints them (a robot's view)
+//   vigil robot-node SCENARIO --robot ID     runs the world with that team robot alone: its
+//                                            controller takes the incidents and talks to its
+//                                            mates over the team topic; pictures, robots.jsonl
 // All take --session NAME (the DDS partition; processes of one system share it), --dds-domain and
 // --dds-config. Documented in docs/DDS.md.
 #include <signal.h>
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -23,6 +27,8 @@
 #include "plugins/dds_bridge/dds.h"
 #include "plugins/dds_bridge/event_relay.h"
 #include "plugins/dds_bridge/event_server.h"
+#include "plugins/dds_bridge/team_transport.h"
+#include "plugins/stereo_camera/robot_camera.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
@@ -86,12 +92,18 @@ Scenario load_checked(const std::string& file, PluginRegistry* registry) {
   return *sc;
 }
 
-// Holds simulated time to at most `speed` times wall time.
+// Holds simulated time to at most `speed` times wall time. With an epoch (Unix time, s) the
+// world's time 0 is that instant, so processes given one epoch share a clock; a process started
+// after it runs as fast as it can until it has caught up.
 class Pacer : public RunObserver {
  public:
-  explicit Pacer(double speed) : speed_(speed) {}
+  explicit Pacer(double speed, double epoch = 0) : speed_(speed), epoch_(epoch) {}
   Status start(const World&, const fs::path&) override {
     t0_ = std::chrono::steady_clock::now();
+    if (epoch_ > 0) {
+      const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+      t0_ -= std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(now - epoch_));
+    }
     return Status::Ok();
   }
   Status after_step(const World& w) override {
@@ -102,14 +114,14 @@ class Pacer : public RunObserver {
   }
 
  private:
-  double speed_;
+  double speed_, epoch_;
   std::chrono::steady_clock::time_point t0_;
 };
 
 void add_camera_node(CLI::App& app) {
   struct Opts {
     std::string scenario, camera, sensor, out;
-    double speed = 0, linger = 2, wait_for_server = 0;
+    double speed = 0, linger = 2, wait_for_server = 0, epoch = 0;
     std::optional<double> duration;
     DdsOpts dds;
   };
@@ -124,6 +136,7 @@ void add_camera_node(CLI::App& app) {
   cmd->add_option("--wait-for-server", o->wait_for_server, "seconds to wait for a subscriber before starting")->capture_default_str();
   cmd->add_option("--linger", o->linger, "seconds to stay up after the run, serving durable events to late joiners")
       ->capture_default_str();
+  cmd->add_option("--epoch", o->epoch, "Unix time (s) of the world's time 0, shared by the processes of one run (with --speed)");
   add_dds_options(cmd, &o->dds);
   cmd->callback([o] {
     catch_signals();
@@ -164,7 +177,7 @@ void add_camera_node(CLI::App& app) {
       std::fflush(stdout);
       return Status::Ok();
     });
-    Pacer pacer(o->speed);
+    Pacer pacer(o->speed, o->epoch);
     RunOptions ro;
     ro.world.plugins = builtin_plugin_registry();
     ro.out_dir = o->out;
@@ -303,10 +316,122 @@ void add_events(CLI::App& app) {
   });
 }
 
+void add_robot_node(CLI::App& app) {
+  struct Opts {
+    std::string scenario, robot, out;
+    double speed = 1, epoch = 0, linger = 0, wait_for_mates = 0;
+    int mates = 0;
+    std::optional<double> duration;
+    bool video = false;
+    DdsOpts dds;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("robot-node", "Run one team robot: its controller, incidents and team messages over DDS");
+  cmd->add_option("scenario", o->scenario, "scenario YAML file")->required();
+  cmd->add_option("--robot", o->robot, "the team robot this node runs")->required();
+  cmd->add_option("--out", o->out, "write this node's robots.jsonl, ground_truth.jsonl, summary.json and pictures/ here");
+  cmd->add_option("--duration", o->duration, "simulated seconds overriding the scenario's");
+  cmd->add_option("--speed", o->speed, "run at most this many times real time (0: as fast as possible)")->capture_default_str();
+  cmd->add_option("--epoch", o->epoch, "Unix time (s) of the world's time 0, shared by the processes of one run (0: now)")
+      ->capture_default_str();
+  cmd->add_option("--mates", o->mates, "wait for this many other robot nodes' readers before starting")->capture_default_str();
+  cmd->add_option("--wait-for-mates", o->wait_for_mates, "... for at most this many seconds")->capture_default_str();
+  cmd->add_option("--linger", o->linger, "seconds to stay up after the run")->capture_default_str();
+  cmd->add_flag("--video", o->video, "also write this node's topdown.avi and topdown.png");
+  add_dds_options(cmd, &o->dds);
+  cmd->callback([o] {
+    catch_signals();
+    PluginRegistry registry;
+    Scenario sc = load_checked(o->scenario, &registry);
+    auto me = std::find_if(sc.robots.begin(), sc.robots.end(), [&](const RobotSpec& r) { return r.id == o->robot; });
+    if (me == sc.robots.end()) {
+      std::string ids;
+      for (const auto& r : sc.robots) ids += (ids.empty() ? "" : ", ") + r.id;
+      throw Exit{report(bad_input(sc.file.string(), 0, "--robot", "no robot '" + o->robot + "' in the scenario (" + ids + ")"))};
+    }
+    if (me->controller != "team") {
+      throw Exit{report(bad_input(sc.file.string(), me->line, "controller",
+                                  "robot '" + o->robot + "' is not a team robot (controller: " + me->controller + ")"))};
+    }
+    // The other team robots are other nodes' (their poses reach this one in their hellos);
+    // robots under other controllers run here as everywhere. No vision here.
+    sc.robots.erase(std::remove_if(sc.robots.begin(), sc.robots.end(),
+                                   [&](const RobotSpec& r) { return r.controller == "team" && r.id != o->robot; }),
+                    sc.robots.end());
+    double silent_from = -1;
+    std::vector<FaultSpec> faults;
+    for (const FaultSpec& f : sc.faults) {
+      if (f.robot != o->robot) continue;
+      if (f.kind == "silent") silent_from = silent_from < 0 ? f.at : std::min(silent_from, f.at);
+      faults.push_back(f);
+    }
+    sc.faults = faults;
+    for (auto& c : sc.cameras) c.plugin.clear();
+    auto part = participant(o->dds);
+    auto sub = dds::IncidentSubscriber::create(*part);
+    if (!sub) throw Exit{report(sub.error())};
+    dds::DdsTeamLink::Options lo;
+    lo.domain = domain_options(o->dds);
+    lo.silent_from = silent_from;
+    auto link = dds::DdsTeamLink::create(o->robot, lo);
+    if (!link) throw Exit{report(link.error())};
+    if (o->mates > 0) {
+      const int got = (*link)->wait_for_mates(o->mates, o->wait_for_mates);
+      if (got < o->mates)
+        std::fprintf(stderr, "robot-node %s: %d of %d mates after %.1f s; starting anyway\n", o->robot.c_str(), got, o->mates,
+                     o->wait_for_mates);
+    }
+    const std::string id = o->robot;
+    dds::IncidentSubscriber* sp = sub->get();
+    dds::DdsTeamLink* lp = link->get();
+    size_t incidents = 0;
+    Pacer pacer(o->speed, o->epoch);
+    render::PictureTaker pictures;
+    RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
+    ro.out_dir = o->out;
+    ro.duration = o->duration;
+    ro.video = o->video && !o->out.empty();
+    ro.observers = {&pacer, &pictures};
+    ro.before_step = [sp, id, &incidents](World& w) {
+      std::vector<dds::Incident> got;
+      std::vector<std::string> rejected;
+      if (Status s = sp->poll(0, &got, &rejected); !s) throw Exit{report(s.error())};
+      for (const auto& r : rejected) std::fprintf(stderr, "robot-node %s: rejected incident: %s\n", id.c_str(), r.c_str());
+      for (const dds::Incident& in : got) {
+        RobotTask t;
+        t.id = in.id;
+        t.kind = in.cancelled ? "cancel_incident" : "incident";
+        t.goal = {in.position.x, in.position.y};
+        t.label = std::string(vision::to_string(in.kind));
+        if (Status s = w.post_task(id, t); !s) throw Exit{report(s.error())};
+        ++incidents;
+      }
+    };
+    ro.exchange_messages = [lp](World& w) { return lp->exchange(w); };
+    ro.on_report = [](const RobotReport& r) {
+      if (r.event.empty()) return;
+      std::printf("%s\n", robot_report_json(r).c_str());
+      std::fflush(stdout);
+    };
+    auto sum = run_scenario(sc, ro);
+    if (!sum) throw Exit{report(sum.error())};
+    std::fprintf(stderr,
+                 "robot-node %s: %.1f s simulated, %zu incidents in, team messages %llu written, %llu delivered, %llu stale, "
+                 "%llu malformed; %zu pictures (session %s)\n",
+                 id.c_str(), sum->sim_seconds, incidents, static_cast<unsigned long long>(lp->written()),
+                 static_cast<unsigned long long>(lp->delivered()), static_cast<unsigned long long>(lp->stale()),
+                 static_cast<unsigned long long>(lp->rejected()), pictures.pictures().size(), o->dds.session.c_str());
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o->linger);
+    while (!g_stop && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  });
+}
+
 }  // namespace
 
 void add_node_commands(CLI::App& app) {
   add_camera_node(app);
+  add_robot_node(app);
   add_server(app);
   add_events(app);
 }

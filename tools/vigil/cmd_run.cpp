@@ -10,6 +10,7 @@
 #include "plugins/builtin.h"
 #include "plugins/dds_bridge/event_relay.h"
 #include "plugins/dds_bridge/team_transport.h"
+#include "plugins/stereo_camera/robot_camera.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
@@ -102,6 +103,9 @@ void add_run_command(CLI::App& app) {
       ro.observers.push_back(host->get());
     }
     if (rig.active() && !scenario->cameras.empty()) ro.observers.push_back(&rig);
+    // Robots' inspection pictures (pictures/<incident>_<robot>.png), when a controller asks.
+    render::PictureTaker pictures;
+    ro.observers.push_back(&pictures);
     // The robots' side of the incidents: a participant subscribed to the server's vigil_events
     // that puts every incident (and cancellation) in each team robot's inbox, in lockstep with
     // the server (every incident published so far is in the inboxes before the next step).
