@@ -119,9 +119,11 @@ struct TokenWorld {
       agents[n]->set_members(names);
     }
   }
+  double clock = 0;  // run() carries on from where the last one stopped
+  int step = 0;
   void run(double seconds, double dt = 0.05) {
-    int step = 0;
-    for (double t = 0; t < seconds; t += dt, ++step) {
+    const double end = clock + seconds;
+    for (double& t = clock; t < end; t += dt, ++step) {
       std::vector<TokenMessage> all;
       for (auto& [n, a] : agents) {
         a->tick(t);
@@ -194,6 +196,22 @@ TEST(TokenPassing, DuplicatesAndLateAcksLeaveOneKeeper) {
   w.agents["a"]->create({3, "bag_taken", 3, {12, 0}}, 0);
   w.run(6);
   EXPECT_EQ(w.keepers_of(3), std::vector<std::string>{"b"});  // the better of the two that decided
+}
+
+// Two robots cut off from each other both keep one task (each created its token and heard
+// nothing back). When the link comes back, the keepers' repeated announcements leave one of
+// them with it within a keep period: the lost first announcement only delayed that.
+TEST(TokenPassing, TwoKeepersCutOffFromEachOtherEndWithOneWhenTheLinkReturns) {
+  TokenWorld w({{"a", 0}, {"b", 10}});
+  w.drop = [](const TokenMessage&, int step) { return step < 100; };  // 5 s of silence
+  w.agents["a"]->create({6, "bag_taken", 3, {0, 0}}, 0);
+  w.agents["b"]->create({6, "bag_taken", 3, {0, 0}}, 0);
+  w.run(4.9);
+  EXPECT_EQ(w.keepers_of(6), (std::vector<std::string>{"a", "b"})) << "cut off, both serve it";
+  w.drop = [](const TokenMessage&, int) { return false; };
+  w.run(1.2);
+  EXPECT_EQ(w.keepers_of(6), std::vector<std::string>{"a"});
+  EXPECT_EQ(w.agents["b"]->keepers().at(6), "a");
 }
 
 }  // namespace

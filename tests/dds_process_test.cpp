@@ -1,6 +1,7 @@
 // Events across processes over real Cyclone DDS on loopback, with the vigil binary: a camera
 // node, the video server and a late subscriber; the multi-process result equals `vigil run`'s;
-// the server killed and restarted loses nothing published after it is back; bad options exit 2.
+// the server killed and restarted loses nothing published after it is back; two robot nodes
+// respond to the incidents, one of them killed and restarted; bad options exit 2.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -9,12 +10,16 @@
 #include <unistd.h>
 
 #include <array>
+#include <map>
+#include <set>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "tests/test_util.h"
 #include "vision/event.h"
@@ -148,6 +153,119 @@ TEST(DdsProcesses, ServerKilledAndRestartedLosesNothingPublishedAfterItIsBack) {
   fs::remove_all(dir);
 }
 
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::vector<nlohmann::json> report_lines(const fs::path& p) {
+  std::vector<nlohmann::json> out;
+  std::istringstream in(slurp(p));
+  for (std::string l; std::getline(in, l);) {
+    auto j = nlohmann::json::parse(l, nullptr, false);
+    if (!j.is_discarded() && j.contains("robot") && j.contains("t_ns")) out.push_back(j);
+  }
+  return out;
+}
+
+// The system of chapter 10.6.3 as separate processes over DDS: a camera node (ground-truth
+// sensor), the video server and two robot nodes, sharing one clock (--epoch) at 4x real time.
+// robot2's process is killed at about 10 s (simulated) and restarted at about 20 s: it catches up
+// and rejoins the team (robot1 sees it leave and come back). Each incident goes to one robot;
+// the bag taken's robot arrives and takes the picture with the event's place in it.
+TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
+  const std::string scenario = (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string();
+  const fs::path dir = temp_dir("robots");
+  const std::string s = session("robots");
+  const double speed = 4, duration = 140;
+  const double epoch = unix_now() + 3;
+  char ep[64];
+  std::snprintf(ep, sizeof ep, "%.3f", epoch);
+  auto robot_args = [&](const std::string& id, const std::string& out) {
+    return std::vector<std::string>{"robot-node", scenario, "--robot", id, "--session", s, "--out", (dir / out).string(),
+                                    "--speed", std::to_string(speed), "--epoch", ep, "--duration", std::to_string(duration)};
+  };
+  const pid_t server = spawn_vigil({"server", scenario, "--session", s, "--out", (dir / "server").string(), "--max-seconds", "90"},
+                                   dir / "server.log");
+  const pid_t cam = spawn_vigil({"camera-node", scenario, "--camera", "cam_corridor", "--sensor", "truth", "--session", s,
+                                 "--speed", std::to_string(speed), "--epoch", ep, "--duration", std::to_string(duration), "--linger", "2"},
+                                dir / "cam.log");
+  const pid_t r1 = spawn_vigil(robot_args("robot1", "r1"), dir / "r1.log");
+  pid_t r2 = spawn_vigil(robot_args("robot2", "r2"), dir / "r2.log");
+  ASSERT_GT(server, 0);
+  ASSERT_GT(cam, 0);
+  ASSERT_GT(r1, 0);
+  ASSERT_GT(r2, 0);
+  auto sleep_until_sim = [&](double t) {
+    const double wall = epoch + t / speed - unix_now();
+    if (wall > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wall));
+  };
+  sleep_until_sim(10);
+  kill(r2, SIGKILL);  // no goodbye
+  wait_exit(r2);
+  sleep_until_sim(20);
+  r2 = spawn_vigil(robot_args("robot2", "r2b"), dir / "r2b.log");
+  ASSERT_GT(r2, 0);
+  EXPECT_EQ(wait_exit(r1), 0) << slurp(dir / "r1.log");
+  EXPECT_EQ(wait_exit(r2), 0) << slurp(dir / "r2b.log");
+  EXPECT_EQ(wait_exit(cam), 0) << slurp(dir / "cam.log");
+  kill(server, SIGTERM);
+  EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "server.log");
+
+  // robot1 saw robot2 leave (member timeout); the restarted robot2 caught up and joined.
+  std::vector<std::string> teams;
+  for (const auto& r : report_lines(dir / "r1" / "robots.jsonl"))
+    if (r.value("event", "") == "team_formed") teams.push_back(r["detail"]);
+  ASSERT_GE(teams.size(), 2u) << slurp(dir / "r1.log");
+  EXPECT_EQ(teams[0], "robot1,robot2");
+  EXPECT_EQ(teams[1], "robot1") << "robot2's process was killed";
+  EXPECT_NE(slurp(dir / "r2b.log").find("joining the team"), std::string::npos) << slurp(dir / "r2b.log");
+
+  const auto incidents = read_events(dir / "server" / "events.jsonl");
+  ASSERT_EQ(incidents.size(), 2u) << slurp(dir / "server.log");
+  std::vector<nlohmann::json> reports = report_lines(dir / "r1" / "robots.jsonl");
+  for (const auto& r : report_lines(dir / "r2b" / "robots.jsonl")) reports.push_back(r);
+  std::map<uint64_t, std::string> served_by;
+  for (const auto& in : incidents) {
+    std::vector<nlohmann::json> assigned, arrived;
+    for (const auto& r : reports) {
+      if (r.value("task_id", uint64_t{0}) != in.id) continue;
+      if (r.value("event", "") == "task_assigned") assigned.push_back(r);
+      if (r.value("event", "") == "arrived_at_incident") arrived.push_back(r);
+    }
+    ASSERT_FALSE(assigned.empty()) << "incident " << in.id << " assigned";
+    std::set<std::string> robots;
+    for (const auto& a : assigned) robots.insert(a["robot"].get<std::string>());
+    // One robot serves it: a preempted one may resume it; a second keeper (the restarted robot
+    // took the left bag's token before it heard robot1's) lets it go at once.
+    std::set<std::string> kept = robots;
+    for (const auto& r : reports) {
+      if (r.value("task_id", uint64_t{0}) == in.id && r.value("event", "") == "task_released") {
+        const double held = (r["t_ns"].get<int64_t>() - in.stamp_ns) * 1e-9;
+        EXPECT_LE(held, 3.0) << r["robot"] << " let the duplicate go within a keep period or two";
+        kept.erase(r["robot"].get<std::string>());
+      }
+    }
+    ASSERT_EQ(kept.size(), 1u) << "incident " << in.id << " is served by one robot";
+    served_by[in.id] = *kept.begin();
+    robots = kept;
+    const double delay = (assigned[0]["t_ns"].get<int64_t>() - in.stamp_ns) * 1e-9;
+    EXPECT_LE(delay, 1.0) << "assigned about as soon as it reached the robots (clocks shared by the epoch)";
+    if (in.kind == vision::EventKind::kBagTaken) {
+      ASSERT_EQ(arrived.size(), 1u) << "the bag taken's robot arrives";
+      const std::string robot = served_by[in.id];
+      const fs::path side = dir / (robot == "robot1" ? "r1" : "r2b") / "pictures" / (std::to_string(in.id) + "_" + robot + ".json");
+      ASSERT_TRUE(fs::exists(side)) << side;
+      auto pj = nlohmann::json::parse(slurp(side));
+      EXPECT_TRUE(pj["target_in_view"].get<bool>());
+      EXPECT_TRUE(fs::exists(side.parent_path() / pj["image"].get<std::string>()));
+    }
+  }
+  // The bag was taken while the left bag's robot guarded: the other robot (so the restarted one
+  // took part) has it.
+  EXPECT_NE(served_by[incidents[0].id], served_by[incidents[1].id]);
+  fs::remove_all(dir);
+}
+
 TEST(DdsProcesses, BadOptionsExitTwoWithTheReason) {
   Output o = vigil_cmd("camera-node " + kScenario + " --camera cam_nowhere --sensor truth");
   EXPECT_EQ(o.code, 2) << o.out;
@@ -161,6 +279,13 @@ TEST(DdsProcesses, BadOptionsExitTwoWithTheReason) {
   o = vigil_cmd("server " + kScenario + " --dds-config /nonexistent/cyclone.xml --max-seconds 1");
   EXPECT_EQ(o.code, 2) << o.out;
   EXPECT_NE(o.out.find("/nonexistent/cyclone.xml"), std::string::npos) << o.out;
+  const std::string team = (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string();
+  o = vigil_cmd("robot-node " + team + " --robot robot9 --duration 1");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("no robot 'robot9'"), std::string::npos) << o.out;
+  o = vigil_cmd("robot-node " + kScenario + " --robot robot1 --duration 1");
+  EXPECT_EQ(o.code, 2) << o.out;
+  EXPECT_NE(o.out.find("is not a team robot"), std::string::npos) << o.out;
   o = vigil_cmd("events --session '' --timeout 1");
   EXPECT_EQ(o.code, 2) << o.out;
   EXPECT_NE(o.out.find("session"), std::string::npos) << o.out;

@@ -21,6 +21,7 @@ void TokenAgent::create(const TokenTask& task, double now) {
 
 void TokenAgent::forget(uint64_t task) {
   keepers_.erase(task);
+  keep_sent_.erase(task);
   seen_hop_.erase(task);
   pending_.erase(task);
   kept_.erase(std::remove_if(kept_.begin(), kept_.end(), [&](const TokenTask& t) { return t.id == task; }), kept_.end());
@@ -45,6 +46,7 @@ void TokenAgent::decide(const TokenTask& task, std::vector<std::string> visited,
   if (keep) {
     keepers_[task.id] = me_;
     kept_.push_back(task);
+    keep_sent_[task.id] = now;
     TokenMessage k;
     k.kind = "keep";
     k.from = me_;
@@ -105,6 +107,17 @@ void TokenAgent::receive(const TokenMessage& m, double now) {
 }
 
 void TokenAgent::tick(double now) {
+  for (const TokenTask& t : kept_) {
+    double& last = keep_sent_[t.id];
+    if (now - last < p_.keep_period) continue;
+    last = now;
+    TokenMessage k;
+    k.kind = "keep";
+    k.from = me_;
+    k.task = t;
+    k.hop = seen_hop_.count(t.id) ? seen_hop_[t.id] : 0;
+    out_.push_back(k);
+  }
   for (auto it = pending_.begin(); it != pending_.end();) {
     Pending& pd = it->second;
     if (now - pd.sent < p_.ack_timeout) {

@@ -8,7 +8,9 @@
 //           and who had it, the hop count.        (seq = the token's hop, so duplicates show)
 //   ack     next -> holder: got it. A token not acknowledged within `ack_timeout` is sent again,
 //           then, after `max_resends`, to the next candidate (the silent robot is skipped).
-//   keep    the keeper -> everyone: the task is mine (others stop holding copies).
+//   keep    the keeper -> everyone: the task is mine (others stop holding copies). Repeated
+//           every `keep_period` while kept, so a lost one (or a robot that joins late) only
+//           delays the resolution of two keepers, never leaves both serving.
 //
 // The threshold: a robot keeps the token when its cost is within `accept_margin` of the least
 // cost it estimates for any robot not yet visited (costs from the mates' last known places),
@@ -47,6 +49,7 @@ struct TokenParams {
   double accept_margin = 0.1;  // keep when my cost <= (1 + margin) x the best estimate left
   double ack_timeout = 0.5;    // s
   int max_resends = 2;
+  double keep_period = 1.0;    // s between a keeper's announcements
 };
 
 class TokenAgent {
@@ -84,6 +87,7 @@ class TokenAgent {
   std::map<uint64_t, Pending> pending_;   // tokens I passed, not yet acknowledged
   std::map<uint64_t, int64_t> seen_hop_;  // the latest hop handled per task (duplicates ignored)
   std::map<uint64_t, std::string> keepers_;
+  std::map<uint64_t, double> keep_sent_;  // when I last announced a task I keep
   std::vector<TokenTask> kept_;
   std::vector<TokenMessage> out_;
 };

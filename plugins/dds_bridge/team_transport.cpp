@@ -196,6 +196,10 @@ int DdsTeamLink::wait_for_mates(int n, double timeout_s) {
   return writer_->wait_for_readers(n + 1, timeout_s) - 1;
 }
 
+Status DdsTeamLink::discard_received() {
+  return reader_->take_each([&](const void*, const dds_sample_info_t&) { ++stale_; });
+}
+
 Status DdsTeamLink::exchange(World& world) {
   const double now = to_seconds(world.time());
   const bool silent = options_.silent_from >= 0 && now >= options_.silent_from;

@@ -68,12 +68,14 @@ class DdsTeamLink {
  public:
   struct Options {
     DomainOptions domain;        // session: the system's (partition vigil.<session>)
-    double stale_after_s = 2.0;
+    double stale_after_s = 10.0;
     double silent_from = -1;     // s: from this time nothing leaves or reaches the robot (< 0: never)
   };
   static Result<std::unique_ptr<DdsTeamLink>> create(const std::string& robot, const Options& options);
   ~DdsTeamLink();
   Status exchange(World& world);
+  // Takes and drops whatever has arrived (a robot not yet on the team: catching up).
+  Status discard_received();
   // Waits up to `timeout_s` for `n` other robots' readers to match this robot's writer.
   int wait_for_mates(int n, double timeout_s);
   uint64_t written() const { return written_; }

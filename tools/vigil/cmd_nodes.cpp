@@ -106,6 +106,14 @@ class Pacer : public RunObserver {
     }
     return Status::Ok();
   }
+  // True while the world is more than `slack_s` of wall time behind the shared clock (a
+  // process started after the epoch, catching up).
+  bool behind(const World& w, double slack_s = 0.25) const {
+    if (speed_ <= 0) return false;
+    const auto due = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(to_seconds(w.time()) / speed_ + slack_s));
+    return std::chrono::steady_clock::now() > due;
+  }
   Status after_step(const World& w) override {
     if (speed_ <= 0) return Status::Ok();
     const auto due = t0_ + std::chrono::duration<double>(to_seconds(w.time()) / speed_);
@@ -393,7 +401,23 @@ void add_robot_node(CLI::App& app) {
     ro.duration = o->duration;
     ro.video = o->video && !o->out.empty();
     ro.observers = {&pacer, &pictures};
-    ro.before_step = [sp, id, &incidents](World& w) {
+    // A node started after the epoch (a restarted robot) first catches up with the shared clock
+    // offline, as a robot booting would: it takes no incidents and no team messages and sends
+    // none until its world is on time; then it joins (its mates' protocol timers run on the
+    // shared clock, which a world racing through the past would break).
+    bool joined = false;
+    Pacer* pp = &pacer;
+    auto on_time = [pp, &joined, id](const World& w) {
+      if (!joined && !pp->behind(w)) {
+        joined = true;
+        if (w.time() > from_seconds(1.0))
+          std::fprintf(stderr, "robot-node %s: caught up with the shared clock at %.1f s; joining the team\n", id.c_str(),
+                       to_seconds(w.time()));
+      }
+      return joined;
+    };
+    ro.before_step = [sp, id, &incidents, on_time](World& w) {
+      if (!on_time(w)) return;
       std::vector<dds::Incident> got;
       std::vector<std::string> rejected;
       if (Status s = sp->poll(0, &got, &rejected); !s) throw Exit{report(s.error())};
@@ -408,7 +432,13 @@ void add_robot_node(CLI::App& app) {
         ++incidents;
       }
     };
-    ro.exchange_messages = [lp](World& w) { return lp->exchange(w); };
+    ro.exchange_messages = [lp, on_time](World& w) {
+      if (!on_time(w)) {
+        (void)w.drain_sent();  // offline: nothing leaves
+        return lp->discard_received();
+      }
+      return lp->exchange(w);
+    };
     ro.on_report = [](const RobotReport& r) {
       if (r.event.empty()) return;
       std::printf("%s\n", robot_report_json(r).c_str());
