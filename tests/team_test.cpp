@@ -397,6 +397,37 @@ void post_incident_at_20s(World& w) {
   for (const char* r : {"robot1", "robot2"}) EXPECT_TRUE(w.post_task(r, t).ok());
 }
 
+// The goal follows the belief: incident 42 reaches the robots at 20 s placed 2.5 m short of where
+// it is; at 24 s the server's fused belief (another camera's report) moves it. The keeper, on
+// its way, re-aims and stops at the stand-off from the new place.
+TEST(Team, TheResponderSGoalFollowsTheFusedBelief) {
+  auto post = [](World& w) {
+    RobotTask t;
+    t.id = 42;
+    t.kind = "incident";
+    t.label = "left_bag";
+    if (w.time() == from_seconds(20.0)) t.goal = {18.5, 3.3};
+    else if (w.time() == from_seconds(24.0)) t.goal = {21.0, 3.3};
+    else return;
+    for (const char* r : {"robot1", "robot2"}) EXPECT_TRUE(w.post_task(r, t).ok());
+  };
+  TeamRun r = run_team("cyclic", 80, "belief", {}, false, post);
+  std::vector<nlohmann::json> moved, arrived;
+  for (const std::string& l : file_lines(r.dir / "robots.jsonl")) {
+    auto j = nlohmann::json::parse(l);
+    if (j.value("task_id", uint64_t{0}) != 42) continue;
+    if (j.value("event", "") == "incident_moved") moved.push_back(j);
+    if (j.value("event", "") == "arrived_at_incident") arrived.push_back(j);
+  }
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_NEAR(moved[0]["t_ns"].get<int64_t>() * 1e-9, 24.0, 0.05);
+  ASSERT_EQ(arrived.size(), 1u);
+  const double to_new = std::hypot(arrived[0]["x"].get<double>() - 21.0, arrived[0]["y"].get<double>() - 3.3);
+  EXPECT_LT(to_new, 2.2) << "at the stand-off (1.5 m) from where the belief moved to";
+  EXPECT_GT(to_new, 0.8);
+  fs::remove_all(r.dir);
+}
+
 // An incident posted to both robots at 20 s; the keeper falls silent at 25 s: the other robot
 // reopens the task and takes it within 5 s.
 TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {

@@ -79,6 +79,10 @@ Status DdsEventRelay::publish(const vision::Event& e) {
     if (Status s = server_->poll(0.05, &log); !s) return s;
     handled_ += log.received;
     rejected_.insert(rejected_.end(), log.rejected.begin(), log.rejected.end());
+    // Fused updates reach the robots too (published_, which the run's robot side counts), but
+    // events.jsonl keeps one line per incident and per withdrawal.
+    for (const Incident& in : log.updated) published_.push_back(in);
+    updates_ += log.updated.size();
     for (const Incident& in : log.published) {
       published_.push_back(in);
       if (out_) {

@@ -43,7 +43,9 @@ class DdsEventRelay : public RunObserver {
   Status after_step(const World&) override { return Status::Ok(); }
   Status finish(const World& world) override;
 
+  // Every incident published, in order: new ones, withdrawals and fused updates (same id).
   const std::vector<Incident>& incidents() const { return published_; }
+  size_t updates() const { return updates_; }
   // The DDS domain and session the server publishes incidents on (topic vigil_events).
   const DomainOptions& domain() const { return options_.domain; }
   const std::vector<std::string>& rejected() const { return rejected_; }
@@ -57,6 +59,7 @@ class DdsEventRelay : public RunObserver {
   std::vector<Incident> published_;
   std::vector<std::string> rejected_;
   int sent_ = 0, handled_ = 0;
+  size_t updates_ = 0;
   std::FILE* out_ = nullptr;
   std::string out_path_;
 };

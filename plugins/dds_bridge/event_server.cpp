@@ -3,97 +3,84 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace vigil::dds {
+
+Eigen::Matrix2d report_covariance(const vision::StereoCameraModel& camera, const vision::Point3& p, double pixel_std,
+                                  double disparity_std) {
+  const double f = camera.intrinsics().fx;
+  const double z = std::max(0.1, p.z);
+  const double lat = z * pixel_std / f;
+  const double rng = z * z * disparity_std / (f * std::max(1e-3, camera.baseline()));
+  // Along the ray (not the optical axis): the point's direction carries the range error.
+  const Eigen::Vector3d ray = Eigen::Vector3d(p.x, p.y, z).normalized();
+  const Eigen::Matrix3d cov_o = lat * lat * (Eigen::Matrix3d::Identity() - ray * ray.transpose()) + rng * rng * ray * ray.transpose();
+  const Eigen::Matrix3d R = camera.map_from_optical().linear();
+  const Eigen::Matrix3d cov_m = R * cov_o * R.transpose();
+  return cov_m.topLeftCorner<2, 2>();
+}
+
+namespace {
+
+std::vector<std::string> ids_of(const std::vector<ServerCamera>& cams) {
+  std::vector<std::string> ids;
+  for (const auto& c : cams) ids.push_back(c.id);
+  return ids;
+}
+
+Incident to_dds(const planning::fusion::Incident& f) {
+  Incident in;
+  in.id = f.id;
+  in.kind = vision::parse_event_kind(f.kind).value_or(vision::EventKind::kLeftBag);
+  in.cancelled = f.cancelled;
+  in.stamp_ns = f.stamp_ns;
+  in.position = {f.position.x, f.position.y, f.position.z};
+  in.cameras = f.cameras;
+  in.camera_event_ids = f.camera_event_ids;
+  in.object = f.object;
+  in.confidence = f.confidence;
+  in.people = f.people;
+  in.camera_position = {f.camera_position.x, f.camera_position.y, f.camera_position.z};
+  return in;
+}
+
+}  // namespace
 
 IncidentMerger::IncidentMerger(std::vector<ServerCamera> cameras, MergeParams params,
                                std::function<bool(double, double)> inside_map)
-    : cameras_(std::move(cameras)), params_(params), inside_map_(std::move(inside_map)) {}
+    : cameras_(std::move(cameras)), core_(ids_of(cameras_), params, std::move(inside_map)) {}
 
 IncidentMerger::Outcome IncidentMerger::add(const vision::Event& e) {
-  Outcome out;
+  planning::fusion::Report r;
+  r.camera = e.camera;
+  r.id = e.id;
+  r.kind = std::string(vision::to_string(e.kind));
+  r.cancelled = e.cancelled;
+  r.stamp_ns = e.stamp_ns;
+  r.object = e.object;
+  r.confidence = e.confidence;
+  r.people = e.people;
+  r.camera_position = {e.camera_position.x, e.camera_position.y, e.camera_position.z};
   const auto cam = std::find_if(cameras_.begin(), cameras_.end(), [&](const ServerCamera& c) { return c.id == e.camera; });
-  if (cam == cameras_.end()) {
-    out.what = Outcome::kRejected;
-    out.reason = "event " + std::to_string(e.id) + " from unknown camera '" + e.camera + "'";
-    return out;
+  if (cam != cameras_.end() && !e.cancelled) {
+    const Eigen::Vector3d p =
+        cam->model.map_from_optical() * Eigen::Vector3d(e.camera_position.x, e.camera_position.y, e.camera_position.z);
+    r.position = {p.x(), p.y(), p.z()};
+    r.covariance = report_covariance(cam->model, e.camera_position);
   }
-  const auto key = std::make_pair(e.camera, e.id);
-  const std::string who = "event " + std::to_string(e.id) + " of camera " + e.camera;
+  const auto o = core_.add(r);
+  Outcome out;
+  out.what = static_cast<Outcome::What>(o.what);
+  out.incident = to_dds(o.incident);
+  out.reason = o.reason;
+  out.moved = o.moved;
+  return out;
+}
 
-  if (e.cancelled) {
-    const auto it = report_to_incident_.find(key);
-    if (it == report_to_incident_.end()) {
-      out.what = Outcome::kIgnored;
-      out.reason = who + ": cancels nothing known";
-      return out;
-    }
-    if (cancelled_reports_[key]) {
-      out.what = Outcome::kIgnored;
-      out.reason = who + ": already cancelled";
-      return out;
-    }
-    cancelled_reports_[key] = true;
-    Incident& in = incidents_[it->second];
-    // Withdrawn when every camera that reported it has withdrawn its report.
-    bool all = true;
-    for (size_t i = 0; i < in.cameras.size(); ++i) all = all && cancelled_reports_[{in.cameras[i], in.camera_event_ids[i]}];
-    if (!all || in.cancelled) {
-      out.what = Outcome::kIgnored;
-      out.reason = who + ": cancelled; other cameras still report incident " + std::to_string(in.id);
-      return out;
-    }
-    in.cancelled = true;
-    in.stamp_ns = std::max(in.stamp_ns, e.stamp_ns);
-    out.what = Outcome::kCancelled;
-    out.incident = in;
-    return out;
-  }
-
-  if (report_to_incident_.count(key)) {
-    out.what = Outcome::kIgnored;
-    out.reason = who + ": duplicate";
-    return out;
-  }
-  const Eigen::Vector3d p =
-      cam->model.map_from_optical() * Eigen::Vector3d(e.camera_position.x, e.camera_position.y, e.camera_position.z);
-  if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()) || !inside_map_(p.x(), p.y())) {
-    out.what = Outcome::kRejected;
-    char buf[160];
-    std::snprintf(buf, sizeof buf, ": at (%.2f, %.2f, %.2f) in the map frame, outside the map", p.x(), p.y(), p.z());
-    out.reason = who + buf;
-    return out;
-  }
-  // Another camera's report of the same incident?
-  for (size_t i = 0; i < incidents_.size(); ++i) {
-    Incident& in = incidents_[i];
-    if (in.cancelled || in.kind != e.kind) continue;
-    if (std::find(in.cameras.begin(), in.cameras.end(), e.camera) != in.cameras.end()) continue;
-    if (std::abs(e.stamp_ns - in.stamp_ns) * 1e-9 > params_.merge_time_s) continue;
-    if (std::hypot(p.x() - in.position.x, p.y() - in.position.y) > params_.merge_distance) continue;
-    in.cameras.push_back(e.camera);
-    in.camera_event_ids.push_back(e.id);
-    in.confidence = std::max(in.confidence, e.confidence);
-    report_to_incident_[key] = i;
-    out.what = Outcome::kMerged;
-    out.incident = in;
-    out.reason = who + ": merged into incident " + std::to_string(in.id);
-    return out;
-  }
-  Incident in;
-  in.id = static_cast<uint64_t>(cam - cameras_.begin() + 1) * 1000000ULL + e.id;
-  in.kind = e.kind;
-  in.stamp_ns = e.stamp_ns;
-  in.position = {p.x(), p.y(), p.z()};
-  in.cameras = {e.camera};
-  in.camera_event_ids = {e.id};
-  in.object = e.object;
-  in.confidence = e.confidence;
-  in.people = e.people;
-  in.camera_position = e.camera_position;
-  report_to_incident_[key] = incidents_.size();
-  incidents_.push_back(in);
-  out.what = Outcome::kNew;
-  out.incident = in;
+std::vector<Incident> IncidentMerger::incidents() const {
+  std::vector<Incident> out;
+  for (const auto& f : core_.incidents()) out.push_back(to_dds(f));
   return out;
 }
 
@@ -150,6 +137,15 @@ Status EventServer::poll(double timeout_s, Log* log) {
         log->rejected.push_back(o.reason);
         break;
       case IncidentMerger::Outcome::kMerged:
+        if (o.moved) {
+          // The belief moved: the incident again (same id and instance), at its fused place.
+          MapEventMessage m;
+          to_message(o.incident, &m);
+          if (Status s = writer_->write_raw(&m.msg); !s) return s;
+          log->updated.push_back(o.incident);
+        }
+        log->ignored.push_back(o.reason);
+        break;
       case IncidentMerger::Outcome::kIgnored:
         log->ignored.push_back(o.reason);
         break;

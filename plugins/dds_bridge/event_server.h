@@ -1,7 +1,9 @@
 // The video server of chapter 10.6.3, over DDS: camera nodes publish the events their activity
 // rules raise, in their own camera frame (topic vigil_camera_events); the server checks each
 // one, transforms it into the building's map frame with the camera's pose, merges the reports of
-// one incident from several cameras, and publishes incidents to the robots (topic vigil_events).
+// one incident from several cameras (fusing their positions with a particle filter), and
+// publishes incidents to the robots (topic vigil_events): new ones, withdrawn ones, and an
+// incident again, same id, when another camera's report moved its fused position.
 //
 // Incident ids are derived from the first report, (camera's index in the scenario + 1) * 1e6 +
 // the camera's event id, so a restarted server that is sent the same reports again (durable
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "planning/fusion/incident_merger.h"
 #include "plugins/dds_bridge/dds.h"
 #include "vision/event.h"
 #include "vision/stereo_camera_model.h"
@@ -27,12 +30,17 @@ struct ServerCamera {
   vision::StereoCameraModel model;  // pose in the map frame
 };
 
-struct MergeParams {
-  double merge_distance = 1.0;  // m: reports of one kind this close...
-  double merge_time_s = 5.0;    // ...and this close in time are one incident
-};
+using MergeParams = planning::fusion::MergeParams;
 
-// The server's logic without DDS: checks, frame change, merging, cancellation.
+// The uncertainty of a stereo camera's report at camera-frame point p (optical frame: x right,
+// y down, z forward), in the map frame's (x, y): the bearing to within `pixel_std` pixels, the
+// range from a disparity to within `disparity_std` pixels (sigma_Z = Z^2 sigma_d / (f B)), so a
+// far report is sure of its direction and unsure of its distance.
+Eigen::Matrix2d report_covariance(const vision::StereoCameraModel& camera, const vision::Point3& p,
+                                  double pixel_std = 1.0, double disparity_std = 0.25);
+
+// The server's logic without DDS: checks, the frame change into the map, then the pure merger
+// and particle-filter fusion of planning/fusion/incident_merger.h.
 class IncidentMerger {
  public:
   // `inside_map(x, y)` says whether a map-frame point is inside the building's map.
@@ -40,20 +48,18 @@ class IncidentMerger {
 
   struct Outcome {
     enum What { kNew, kCancelled, kMerged, kIgnored, kRejected } what = kIgnored;
-    Incident incident;   // kNew, kCancelled: what to publish; kMerged: the incident it joined
+    Incident incident;   // kNew, kCancelled: what to publish; kMerged: the incident it joined, fused
     std::string reason;  // kRejected, kIgnored: why
+    bool moved = false;  // kMerged: the fused position moved: publish it again (same id)
   };
   // One camera-frame event (camera_position set, map_position ignored).
   Outcome add(const vision::Event& e);
-  const std::vector<Incident>& incidents() const { return incidents_; }
+  std::vector<Incident> incidents() const;
+  const planning::fusion::IncidentMerger& core() const { return core_; }
 
  private:
   std::vector<ServerCamera> cameras_;
-  MergeParams params_;
-  std::function<bool(double, double)> inside_map_;
-  std::vector<Incident> incidents_;
-  std::map<std::pair<std::string, uint64_t>, size_t> report_to_incident_;
-  std::map<std::pair<std::string, uint64_t>, bool> cancelled_reports_;
+  planning::fusion::IncidentMerger core_;
 };
 
 // Publishes camera events (a camera node's side).
@@ -74,6 +80,7 @@ class EventServer {
 
   struct Log {
     std::vector<Incident> published;   // new incidents and cancellations, in order
+    std::vector<Incident> updated;     // incidents whose fused position moved (published again)
     std::vector<std::string> rejected; // malformed or impossible reports, with the reason
     std::vector<std::string> ignored;  // duplicates and merged reports
     int received = 0;                  // camera events taken (valid or not)

@@ -405,7 +405,27 @@ class Team : public Plugin {
       if (task_.id == t.id) end_response(cmd, "incident cancelled");
       return;
     }
-    if (incidents_.count(t.id)) return;
+    if (auto it = incidents_.find(t.id); it != incidents_.end()) {
+      // The same incident again: the server's fused belief of where it is moved (another camera
+      // saw it). The goal follows: a robot on its way re-aims its stand-off point when the
+      // belief moved more than 0.25 m; a guarding one faces the new place.
+      it->second.task.where = t.goal;
+      if (task_.id == t.id) {
+        const double moved = (t.goal - task_.where).norm();
+        task_.where = t.goal;
+        for (auto& q : queue_)
+          if (q.id == t.id) q.where = t.goal;
+        if (guard_until_ < 0 && moved > 0.25) {
+          standoff_goal_ = standoff_point(t.goal);
+          nav_.go_to(standoff_goal_, t.id, "incident " + std::to_string(t.id), false);
+          cmd.report(base_report("incident_moved", task_.kind + " " + std::to_string(t.id)));
+        }
+      } else {
+        for (auto& q : queue_)
+          if (q.id == t.id) q.where = t.goal;
+      }
+      return;
+    }
     Known k;
     auto pr = priorities_.find(t.label);
     k.task = {t.id, t.label, pr != priorities_.end() ? pr->second : planning::allocation::default_priority(t.label), t.goal};

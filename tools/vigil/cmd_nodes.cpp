@@ -255,6 +255,9 @@ void add_server(CLI::App& app) {
         last = now;
       }
       for (const auto& r : log.rejected) std::fprintf(stderr, "server: rejected %s\n", r.c_str());
+      for (const auto& in : log.updated)
+        std::fprintf(stderr, "server: incident %llu fused from %zu cameras: now at (%.3f, %.3f)\n",
+                     static_cast<unsigned long long>(in.id), in.cameras.size(), in.position.x, in.position.y);
       for (const auto& in : log.published) {
         const std::string line = vision::format_event_json(in.as_event());
         std::printf("%s\n", line.c_str());
