@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs the default scenario (dis_bag_taken) headless with
-# the whole pipeline: every camera rendered, the plan-view tracker on SGBM disparity, activity
-# rules, events over DDS to the video server; then scores tracks and events against the ground
-# truth (vigil eval). Extra arguments go to `vigil run`, e.g. tools/run.sh --no-video --seed 7.
+# Installs what is missing, builds, and runs the default scenario (dis_team_bag_taken) headless
+# with the whole loop: every camera rendered, the plan-view tracker on SGBM disparity, activity
+# rules, events over DDS to the video server, incidents over DDS to the patrolling robot team,
+# token passing, the chosen robot drives there, guards and (bag taken) takes its picture; then
+# scores tracks, events, navigation, patrol idleness and the response against the ground truth
+# (vigil eval). Extra arguments go to `vigil run`, e.g. tools/run.sh --no-video --seed 7.
 # VIGIL_SCENARIO picks another scenario; VIGIL_SENSOR=truth uses the fast ground-truth sensor;
 # VIGIL_EVAL_CAMERA the camera whose view the tracking is scored in (default cam_corridor).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$here/tools/build.sh"
-scenario="${VIGIL_SCENARIO:-$here/scenarios/dis_bag_taken.yaml}"
+scenario="${VIGIL_SCENARIO:-$here/scenarios/dis_team_bag_taken.yaml}"
 out="$here/runs/$(basename "$scenario" .yaml)"
 "$here/build/tools/vigil" run "$scenario" --sensor "${VIGIL_SENSOR:-planview}" --out "$out" "$@"
 # Tracking is scored where one camera looks (people and bags within 8 m, in its field of view,
