@@ -62,6 +62,9 @@ struct RobotReport {
   Vec2 goal;                     // the current goal
   double path_length = 0;        // planned length from where the goal was given (m)
   double cruise_speed = 0;       // the speed it drives at (m/s), for time-to-goal figures
+  // What is left of the planned path, from the robot on (at most 64 points), for views such as
+  // the top-down video; not written to robots.jsonl.
+  std::vector<Vec2> path;
 };
 
 // A message between robots' controllers (patrol visits, task tokens, team state). The transport

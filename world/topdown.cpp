@@ -118,6 +118,12 @@ cv::Mat TopdownRenderer::draw(const World& world) {
     }
     const int rad = std::max(3, static_cast<int>((r.model.radius + 0.1) * scale_));
     cv::circle(img, to_px(rep.pose.position()), rad, cv::Scalar(220, 80, 0), lw, cv::LINE_AA);
+    // The planned path ahead (thin, teal).
+    if (rep.path.size() >= 2) {
+      std::vector<cv::Point> pts;
+      for (const Vec2& p : rep.path) pts.push_back(to_px(p));
+      cv::polylines(img, pts, false, cv::Scalar(200, 160, 0), std::max(1, lw - 1), cv::LINE_AA);
+    }
     // A team robot's role; responding or guarding, its assignment: a line to where it goes.
     if (rep.role == "respond" || rep.role == "guard") {
       const cv::Scalar task_col = rep.role == "guard" ? cv::Scalar(0, 0, 200) : cv::Scalar(0, 120, 255);

@@ -426,6 +426,23 @@ class Navigator : public Plugin {
     return true;
   }
 
+  // The path ahead, from the robot's estimate on, thinned to at most 64 points.
+  std::vector<Vec2> remaining_path() const {
+    std::vector<Vec2> out;
+    if (!goal_ || path_.empty()) return out;
+    out.push_back(pose_.position());
+    const size_t k = std::min(path_index_ + 1, path_.size() - 1);
+    const size_t n = path_.size() - k;
+    const size_t stride = std::max<size_t>(1, (n + 62) / 63);
+    for (size_t i = k; i < path_.size(); i += stride) out.push_back(path_[i]);
+    if ((out.back() - path_.back()).norm() > 1e-9) out.push_back(path_.back());
+    return out;
+  }
+
+ public:
+  const std::vector<Vec2> planned_path() const { return remaining_path(); }
+
+ private:
   // What is left of the route from `pos`: to the path's next point, then along it; the
   // straight line to the goal when there is no path.
   double remaining_length(Vec2 pos) const {
@@ -700,6 +717,7 @@ class Navigator : public Plugin {
     else if (!event.empty() && last_goal_) r.goal = *last_goal_;
     r.path_length = std::max(0.0, planned_length_);
     r.cruise_speed = speed_;
+    r.path = remaining_path();
     if (goal_) last_goal_ = goal_;
     cmd.report(r);
   }

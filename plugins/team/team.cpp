@@ -615,6 +615,7 @@ class Team : public Plugin {
     r.detail = detail;
     r.goal = task_.id ? standoff_goal_ : Vec2{};
     r.cruise_speed = nav_.cruise_speed();
+    r.path = nav_.planned_path();
     return r;
   }
 
