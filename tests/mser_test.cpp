@@ -1,0 +1,161 @@
+// The colour MSER segmenter (vision/mser, chapter 10.3.1): texture elements against the formula
+// by hand, the counting sort's order, the MSER tree and the segmentation of synthetic images
+// whose answer is known, the line constraint, determinism and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include <opencv2/imgproc.hpp>
+
+#include "vision/mser/segmenter.h"
+#include "vision/mser/texture.h"
+
+namespace vigil::vision::mser {
+namespace {
+
+TEST(MserTexture, ElementsFollowTheChapterSFormula) {
+  // By hand: c = (100, 50, 0), a = (80, 50, 0), b = (100, 70, 10).
+  // sum = (20^2 / 180) + 0 + 0 (a) + 0 + (20^2 / 120) + (10^2 / 10) (b) = 2.2222 + 3.3333 + 10 = 15.5556
+  // t = sqrt(512 * 15.5556) = 89.24 -> 89.
+  EXPECT_EQ(texture_value({80, 50, 0}, {100, 50, 0}, {100, 70, 10}), 89);
+  EXPECT_EQ(texture_value({7, 7, 7}, {7, 7, 7}, {7, 7, 7}), 0);
+  EXPECT_EQ(texture_value({0, 0, 0}, {0, 0, 0}, {0, 0, 0}), 0);  // 0/0 terms are 0
+  EXPECT_EQ(texture_value({0, 0, 0}, {255, 255, 255}, {0, 0, 0}), 255);  // clamped
+  // Symmetric in the two neighbours.
+  EXPECT_EQ(texture_value({1, 2, 3}, {40, 50, 60}, {90, 9, 200}), texture_value({90, 9, 200}, {40, 50, 60}, {1, 2, 3}));
+}
+
+TEST(MserTexture, CountingSortOrdersEveryElementWithAUnit) {
+  cv::Mat img(7, 9, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  TextureElements t;
+  compute_texture_elements(img, &t);
+  // Units: horizontal for x in 1..w-2, vertical for y in 1..h-2.
+  EXPECT_EQ(t.order.size(), static_cast<size_t>(7 * 7 + 5 * 9));
+  for (size_t k = 1; k < t.order.size(); ++k) {
+    const auto a = t.order[k - 1], b = t.order[k];
+    ASSERT_LE(t.value[a], t.value[b]);
+    if (t.value[a] == t.value[b]) ASSERT_LT(a, b) << "stable within a value";
+  }
+  for (int v = 0; v < 256; ++v)
+    for (uint32_t k = t.level_start[v]; k < t.level_start[v + 1]; ++k) ASSERT_EQ(t.value[t.order[k]], v);
+  // One element by hand against the image.
+  const int x = 4, y = 3;
+  const uint32_t e = 2 * (y * 9 + x);
+  EXPECT_EQ(t.value[e], texture_value(img.at<cv::Vec3b>(y, x - 1), img.at<cv::Vec3b>(y, x), img.at<cv::Vec3b>(y, x + 1)));
+  EXPECT_EQ(t.value[e + 1], texture_value(img.at<cv::Vec3b>(y - 1, x), img.at<cv::Vec3b>(y, x), img.at<cv::Vec3b>(y + 1, x)));
+  EXPECT_EQ(t.value[0], 256) << "a corner pixel has no unit";
+}
+
+// Four flat colour blocks with faint noise: four regions, each exactly its block.
+TEST(MserSegmenter, SegmentsFlatBlocksExactly) {
+  cv::Mat img(80, 120, CV_8UC3);
+  const cv::Vec3b cols[4] = {{200, 40, 40}, {40, 180, 60}, {30, 30, 200}, {190, 190, 60}};
+  cv::RNG rng(3);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      cv::Vec3b c = cols[(y >= 40) * 2 + (x >= 60)];
+      for (int k = 0; k < 3; ++k) c[k] = cv::saturate_cast<uint8_t>(c[k] + rng.uniform(-2, 3));
+      img.at<cv::Vec3b>(y, x) = c;
+    }
+  // Without lines: plain colour evolution; the blocks are four leaves under one root.
+  SegmenterParams no_lines;
+  no_lines.use_lines = false;
+  for (bool lines : {false, true}) {
+    MserSegmenter seg(lines ? SegmenterParams{} : no_lines);
+    Segmentation s;
+    ASSERT_TRUE(seg.segment(img, &s));
+    ASSERT_EQ(s.regions.size(), 4u) << "lines " << lines;
+    // Every block is one region (line pixels on the borders join the nearest colour: all but
+    // the few at the corners where lines meet).
+    for (int b = 0; b < 4; ++b) {
+      std::map<int, int> count;
+      const int y0 = (b / 2) * 40, x0 = (b % 2) * 60;
+      for (int y = y0; y < y0 + 40; ++y)
+        for (int x = x0; x < x0 + 60; ++x) ++count[s.labels.at<int32_t>(y, x)];
+      int most = 0;
+      for (const auto& [l, c] : count) most = std::max(most, c);
+      EXPECT_GE(most, 40 * 60 - 3) << "block " << b << " lines " << lines;
+    }
+    for (const Region& r : s.regions) {
+      EXPECT_NEAR(r.size, 40 * 60, 3);
+      EXPECT_NEAR(r.width(), 2 * 60 / std::sqrt(12.0), 0.5);  // second-moment width of a 60 px box
+    }
+    EXPECT_EQ(s.leaves.size(), 4u);
+    int roots = 0;
+    for (const MserNode& n : s.tree) roots += n.parent < 0;
+    if (lines) {
+      EXPECT_EQ(roots, 4) << "the lines cut the blocks off from each other: each its own root";
+    } else {
+      EXPECT_EQ(roots, 1);
+      for (const MserNode& n : s.tree)
+        if (n.parent < 0) EXPECT_EQ(n.size, 80 * 120);
+    }
+    for (int leaf : s.leaves) EXPECT_EQ(static_cast<int>(seg.node_pixels(s, leaf).size()), s.tree[leaf].size);
+  }
+}
+
+// The chapter's case: two same-coloured squares whose shared border is a strong line with a
+// one-pixel break. Colour evolution alone merges them through the break at the lowest level;
+// Canny's hysteresis carries the border across the break and the line constraint keeps them
+// apart.
+TEST(MserSegmenter, TheLineConstraintKeepsTwoTouchingSameColourSquaresApart) {
+  cv::Mat img(60, 100, CV_8UC3, cv::Scalar(40, 40, 40));
+  cv::rectangle(img, cv::Rect(20, 15, 30, 30), cv::Scalar(60, 160, 200), cv::FILLED);
+  cv::rectangle(img, cv::Rect(50, 15, 30, 30), cv::Scalar(60, 160, 200), cv::FILLED);
+  cv::line(img, {50, 15}, {50, 44}, cv::Scalar(20, 60, 80), 1);
+  img.at<cv::Vec3b>(30, 50) = cv::Vec3b(60, 160, 200);  // the break
+  SegmenterParams no_lines;
+  no_lines.use_lines = false;
+  MserSegmenter plain(no_lines), lined;
+  Segmentation a, b;
+  ASSERT_TRUE(plain.segment(img, &a));
+  ASSERT_TRUE(lined.segment(img, &b));
+  auto label = [](const Segmentation& s, int x, int y) { return s.labels.at<int32_t>(y, x); };
+  EXPECT_EQ(label(a, 35, 30), label(a, 65, 30)) << "one region through the break without lines";
+  EXPECT_FALSE(lined.lines().segments.empty());
+  EXPECT_NE(label(b, 35, 30), label(b, 65, 30)) << "two with the line constraint";
+  EXPECT_NE(label(b, 35, 30), label(b, 5, 5));
+}
+
+TEST(MserSegmenter, EveryPixelIsInExactlyOneRegionAndRunsRepeat) {
+  cv::Mat img(120, 160, CV_8UC3);
+  cv::RNG rng(11);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(img, img, cv::Size(7, 7), 2.0);
+  MserSegmenter seg;
+  Segmentation s1, s2;
+  ASSERT_TRUE(seg.segment(img, &s1));
+  ASSERT_TRUE(seg.segment(img, &s2));
+  int total = 0;
+  for (const Region& r : s1.regions) {
+    EXPECT_GT(r.size, 0);
+    total += r.size;
+  }
+  EXPECT_EQ(total, img.rows * img.cols);
+  double mn, mx;
+  cv::minMaxLoc(s1.labels, &mn, &mx);
+  EXPECT_GE(mn, 0);
+  EXPECT_LT(mx, static_cast<double>(s1.regions.size()));
+  EXPECT_EQ(cv::countNonZero(s1.labels != s2.labels), 0) << "deterministic";
+  EXPECT_GT(s1.regions.size(), 3u);
+}
+
+TEST(MserSegmenter, BadInputIsRefusedWithTheReason) {
+  MserSegmenter seg;
+  Segmentation s;
+  std::string why;
+  EXPECT_FALSE(seg.segment(cv::Mat(), &s, &why));
+  EXPECT_NE(why.find("CV_8UC3"), std::string::npos);
+  EXPECT_FALSE(seg.segment(cv::Mat(10, 10, CV_8U, cv::Scalar(0)), &s, &why));
+  EXPECT_FALSE(seg.segment(cv::Mat(2, 10, CV_8UC3, cv::Scalar(0)), &s, &why));
+  // A flat image: one region.
+  ASSERT_TRUE(seg.segment(cv::Mat(20, 20, CV_8UC3, cv::Scalar(9, 9, 9)), &s, &why));
+  EXPECT_EQ(s.regions.size(), 1u);
+}
+
+}  // namespace
+}  // namespace vigil::vision::mser

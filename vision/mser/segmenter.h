@@ -1,0 +1,105 @@
+// The colour MSER segmenter of chapter 10.3.1 (King and Nicolescu): line detection, MSER-tree
+// construction over texture elements, and region expansion into a full segmentation.
+//
+// Tree construction. Texture elements (texture.h) are processed in increasing value; each merges
+// its three-pixel unit (the pixel and its two neighbours in the element's direction), merging the
+// regions the pixels belong to, except across line pixels (lines.h). After all elements of one
+// value, every region that grew has its rate of growth measured: while its growth keeps
+// accelerating or keeps declining it evolves on; when the growth turns from declining (or
+// stable) to accelerating by more than MIN-SIZE pixels, the region as it was before the
+// accelerated growth is stored as an MSER (if it has at least MIN-SIZE pixels). The stored
+// regions nest into a tree; the last regions standing (the whole image, or each part lines cut
+// off completely) are its roots. MIN-SIZE (24 pixels) is the only threshold.
+//
+// Region expansion (the second of the dual pass). The leaves of the tree (MSERs with no MSER
+// inside) seed the segmentation; the elements are processed again in order and grow the leaves
+// over the unassigned pixels, never merging two leaves and never crossing a line, until every
+// pixel is in exactly one region. Parts no leaf reaches (closed off by lines) are regions of
+// their own when they have MIN-SIZE pixels; line pixels and smaller parts join the adjacent
+// region of the nearest mean colour.
+//
+// Pixel membership of every tree node is kept without copying: regions keep their pixels in a
+// linked list that merges only concatenate (the larger region's list first), so a region as it
+// was at any time is the run of `size` list entries from its head.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "vision/mser/lines.h"
+#include "vision/mser/texture.h"
+
+namespace vigil::vision::mser {
+
+struct SegmenterParams {
+  int min_size = 24;        // MIN-SIZE (pixels): the chapter's default
+  bool use_lines = true;    // line constraint (off: plain colour MSER evolution)
+  LineParams lines;
+};
+
+// A node of the MSER tree.
+struct MserNode {
+  int parent = -1;
+  std::vector<int> children;
+  int level = 0;     // the texture value after which it was stored (255 for roots)
+  int size = 0;      // pixels
+  int head = -1;     // first pixel of its run in MserSegmenter::pixel_list()
+};
+
+// A region of the segmentation.
+struct Region {
+  int size = 0;
+  cv::Vec3f mean;            // mean colour, in the image's channel order
+  cv::Point2f centroid;
+  float cxx = 0, cyy = 0, cxy = 0;  // second moments of the pixel positions (covariance, px^2)
+  cv::Rect bbox;
+  int node = -1;             // the MSER-tree leaf it grew from (-1: a part no leaf reached)
+  float width() const;       // 2 sqrt(cxx): the second-moment width (px)
+  float height() const;      // 2 sqrt(cyy)
+};
+
+struct Segmentation {
+  cv::Mat labels;                 // CV_32S: region index of every pixel
+  std::vector<Region> regions;
+  std::vector<MserNode> tree;     // every stored MSER; roots have parent -1
+  std::vector<int> leaves;        // tree nodes without children, in the order stored
+};
+
+class MserSegmenter {
+ public:
+  explicit MserSegmenter(SegmenterParams params = {}) : p_(params) {}
+  // Segments a CV_8UC3 image (any size >= 3 x 3; an empty or other-typed image is an error).
+  // Buffers are kept between calls, so a run of frames allocates once.
+  bool segment(const cv::Mat& bgr, Segmentation* out, std::string* error = nullptr);
+
+  const Lines& lines() const { return lines_; }
+  const TextureElements& texture() const { return tex_; }
+  // next[i]: the pixel after pixel i in its region's list (-1 at the end); with a node's head
+  // and size it gives the node's pixels.
+  const std::vector<int32_t>& pixel_list() const { return next_; }
+  // The pixels of tree node `node` of the last segmentation.
+  std::vector<int> node_pixels(const Segmentation& s, int node) const;
+  const SegmenterParams& params() const { return p_; }
+
+ private:
+  void build_tree(Segmentation* out);
+  void expand(const cv::Mat& bgr, Segmentation* out);
+
+  SegmenterParams p_;
+  TextureElements tex_;
+  Lines lines_;
+  std::vector<uint8_t> blocked_;  // line pixels
+  // Union-find, pass 1.
+  std::vector<int32_t> parent_, size_, head_, tail_, next_;
+  std::vector<int32_t> prev_size_, growth_, growth_before_;
+  std::vector<int16_t> hlevel_;
+  std::vector<int32_t> top_head_, top_tail_, pend_head_, pend_tail_, node_next_;
+  std::vector<int32_t> touched_;
+  std::vector<int16_t> touched_at_;
+  // Pass 2.
+  std::vector<int32_t> parent2_, leaf_of_;
+};
+
+}  // namespace vigil::vision::mser
