@@ -30,5 +30,6 @@ void add_bench_mcl_command(CLI::App* bench);  // vigil bench mcl
 void add_bench_plan_command(CLI::App* bench);  // vigil bench plan
 void add_bench_patrol_command(CLI::App* bench);  // vigil bench patrol
 void add_bench_allocate_command(CLI::App* bench);  // vigil bench allocate
+void add_bench_mser_command(CLI::App* bench);  // vigil bench mser
 
 }  // namespace vigil::cli
