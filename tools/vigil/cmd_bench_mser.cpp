@@ -109,6 +109,7 @@ void add_bench_mser_command(CLI::App* bench) {
         auto colour = cv::MSER::create();
         auto grey = cv::MSER::create();
         std::vector<double> t_ours, t_col, t_grey;
+        double ph_tex = 0, ph_lines = 0, ph_tree = 0, ph_exp = 0;
         double n_ours = 0, n_col = 0, n_grey = 0;
         std::vector<std::vector<cv::Point>> regions;
         std::vector<cv::Rect> boxes;
@@ -119,6 +120,10 @@ void add_bench_mser_command(CLI::App* bench) {
           if (!seg.segment(f, &out, &why)) throw Exit{report(internal_error("MSER segmenter: " + why))};
           t_ours.push_back(ms_since(t0));
           n_ours += out.regions.size();
+          ph_tex += seg.phase_times().texture;
+          ph_lines += seg.phase_times().lines;
+          ph_tree += seg.phase_times().tree;
+          ph_exp += seg.phase_times().expansion;
           t0 = Clock::now();
           colour->detectRegions(f, regions, boxes);
           t_col.push_back(ms_since(t0));
@@ -134,7 +139,10 @@ void add_bench_mser_command(CLI::App* bench) {
         const double k = 1.0 / static_cast<double>(sized.size());
         std::printf("%-28s %9s %10.2f %8.1f %12.2f %8.0f %11.2f %8.0f %8.1fx %9.0f\n", name.c_str(), size.c_str(), mo,
                     mo > 0 ? 1e3 / mo : 0.0, mc, n_col * k, mg, n_grey * k, mo > 0 ? mc / mo : 0.0, n_ours * k);
+        std::printf("%-28s %9s   phases (mean ms): texture %.2f, lines %.2f, MSER tree %.2f, expansion %.2f\n", "",
+                    "", ph_tex * k, ph_lines * k, ph_tree * k, ph_exp * k);
         results.push_back({{"source", name},
+                           {"phase_ms", {{"texture", ph_tex * k}, {"lines", ph_lines * k}, {"tree", ph_tree * k}, {"expansion", ph_exp * k}}},
                            {"width", w},
                            {"height", h},
                            {"frames", sized.size()},

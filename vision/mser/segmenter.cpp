@@ -1,6 +1,7 @@
 #include "vision/mser/segmenter.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -25,7 +26,11 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
     if (error) *error = "the MSER segmenter needs a colour (CV_8UC3) image of at least 3 x 3 pixels";
     return false;
   }
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  const auto t0 = Clock::now();
   compute_texture_elements(bgr, &tex_);
+  const auto t1 = Clock::now();
   const size_t n = static_cast<size_t>(bgr.cols) * bgr.rows;
   blocked_.assign(n, 0);
   if (p_.use_lines) {
@@ -36,135 +41,153 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
     lines_.segments.clear();
     lines_.mask = cv::Mat::zeros(bgr.size(), CV_8U);
   }
+  const auto t2 = Clock::now();
   out->tree.clear();
   out->leaves.clear();
   build_tree(out);
+  const auto t3 = Clock::now();
   expand(bgr, out);
+  const auto t4 = Clock::now();
+  times_ = {ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4)};
   return true;
 }
 
 void MserSegmenter::build_tree(Segmentation* out) {
   const int w = tex_.width, h = tex_.height;
   const size_t n = static_cast<size_t>(w) * h;
+  // One record per pixel, a region's state at its root: what a union touches shares a line.
+  px_.resize(n);
   parent_.resize(n);
-  size_.assign(n, 1);
-  head_.resize(n);
-  tail_.resize(n);
   next_.assign(n, -1);
-  prev_size_.assign(n, 1);
-  growth_.assign(n, 0);
-  growth_before_.assign(n, 0);
-  hlevel_.assign(n, -2);
-  top_head_.assign(n, -1);
-  top_tail_.assign(n, -1);
-  pend_head_.assign(n, -1);
-  pend_tail_.assign(n, -1);
-  touched_at_.assign(n, -1);
-  node_next_.clear();
   for (size_t i = 0; i < n; ++i) {
-    parent_[i] = static_cast<int32_t>(i);
-    head_[i] = tail_[i] = static_cast<int32_t>(i);
+    PxState& q = px_[i];
+    parent_[i] = q.head = q.tail = static_cast<int32_t>(i);
+    q.size = q.prev_size = 1;
+    q.growth = q.growth_before = 0;
+    q.hlevel = -2;
+    q.touched_at = -1;
+    q.top_head = q.top_tail = q.pend_head = q.pend_tail = -1;
   }
-  auto append = [&](std::vector<int32_t>& lh, std::vector<int32_t>& lt, int32_t r, int32_t h2, int32_t t2) {
-    if (h2 < 0) return;
-    if (lh[r] < 0) {
-      lh[r] = h2;
-    } else {
-      node_next_[lt[r]] = h2;
+  node_next_.clear();
+  merges_.clear();
+  int32_t* parent = parent_.data();
+  auto root = [parent](int32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
     }
-    lt[r] = t2;
+    return x;
+  };
+  auto append_top = [&](PxState& r, int32_t h2, int32_t t2) {
+    if (h2 < 0) return;
+    if (r.top_head < 0) r.top_head = h2;
+    else node_next_[r.top_tail] = h2;
+    r.top_tail = t2;
+  };
+  auto append_pend = [&](PxState& r, int32_t h2, int32_t t2) {
+    if (h2 < 0) return;
+    if (r.pend_head < 0) r.pend_head = h2;
+    else node_next_[r.pend_tail] = h2;
+    r.pend_tail = t2;
   };
   int16_t level = 0;
-  auto touch = [&](int32_t r) {
-    if (touched_at_[r] != level) {
-      touched_at_[r] = level;
-      touched_.push_back(r);
-    }
-  };
   const int min_size = p_.min_size;
   // Growth that "declines or is stable" before the acceleration: a level without growth, or a
   // declining growth that adds under an eighth of the region (a speck that doubles every level
   // while it shrinks its growth is still forming, not stable).
-  auto steady = [&](int32_t r, bool last_level) {
+  auto steady = [&](const PxState& r, bool last_level) {
     if (!last_level) return true;
-    return growth_[r] <= growth_before_[r] && 8 * growth_[r] < prev_size_[r];
+    return r.growth <= r.growth_before && 8 * r.growth < r.prev_size;
   };
-  auto store = [&](int32_t r, int size, int node_level) {
+  auto store = [&](PxState& r, int size, int node_level) {
     const int id = static_cast<int>(out->tree.size());
     MserNode node;
     node.level = node_level;
     node.size = size;
-    node.head = head_[r];
-    for (int32_t c = top_head_[r]; c >= 0; c = node_next_[c]) {
+    node.head = r.head;
+    for (int32_t c = r.top_head; c >= 0; c = node_next_[c]) {
       node.children.push_back(c);
       out->tree[c].parent = id;
     }
     out->tree.push_back(std::move(node));
     node_next_.push_back(-1);
-    top_head_[r] = top_tail_[r] = id;
+    r.top_head = r.top_tail = id;
   };
+  // Unites two roots.
   auto unite = [&](int32_t a, int32_t b) {
-    a = find(parent_, a);
-    b = find(parent_, b);
-    if (a == b) return;
-    if (size_[a] < size_[b]) std::swap(a, b);
+    if (px_[a].size < px_[b].size) std::swap(a, b);
+    PxState& A = px_[a];
+    PxState& B = px_[b];
     // b ends here, swallowed by a larger region: for b that is accelerated growth, so b as it
     // was before this level is an MSER if it had been growing steadily (or not at all).
-    if (prev_size_[b] >= min_size) {
-      const bool last_level = hlevel_[b] == level - 1;
-      const int g_prev = last_level ? growth_[b] : 0;
-      const bool was_steady = steady(b, last_level);
-      const int g = size_[a] + size_[b] - prev_size_[b];
-      if (was_steady && g - g_prev > min_size) store(b, prev_size_[b], last_level ? level - 1 : hlevel_[b]);
+    if (B.prev_size >= min_size) {
+      const bool last_level = B.hlevel == level - 1;
+      const int g_prev = last_level ? B.growth : 0;
+      const int g = A.size + B.size - B.prev_size;
+      if (steady(B, last_level) && g - g_prev > min_size) store(B, B.prev_size, last_level ? level - 1 : B.hlevel);
     }
-    parent_[b] = a;
-    size_[a] += size_[b];
-    next_[tail_[a]] = head_[b];
-    tail_[a] = tail_[b];
+    parent[b] = a;
+    merges_.push_back({a, b});
+    A.size += B.size;
+    next_[A.tail] = B.head;
+    A.tail = B.tail;
     // b's maximal MSERs now lie inside a, reached this level.
-    append(pend_head_, pend_tail_, a, top_head_[b], top_tail_[b]);
-    append(pend_head_, pend_tail_, a, pend_head_[b], pend_tail_[b]);
-    top_head_[b] = pend_head_[b] = -1;
-    touch(a);
+    append_pend(A, B.top_head, B.top_tail);
+    append_pend(A, B.pend_head, B.pend_tail);
+    B.top_head = B.pend_head = -1;
+    if (A.touched_at != level) {
+      A.touched_at = level;
+      touched_.push_back(a);
+    }
+    return a;
   };
+  const uint8_t* blocked = blocked_.data();
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
     for (uint32_t k = tex_.level_start[v]; k < tex_.level_start[v + 1]; ++k) {
       const uint32_t e = tex_.order[k];
       const int32_t c = static_cast<int32_t>(e >> 1);
-      if (blocked_[c]) continue;
+      if (blocked[c]) continue;
       const int32_t step = (e & 1) ? w : 1;
       const int32_t a = c - step, b = c + step;
-      if (!blocked_[a]) unite(c, a);
-      if (!blocked_[b]) unite(c, b);
+      // Most units lie inside one region already: compare roots before uniting.
+      int32_t rc = root(c);
+      if (!blocked[a]) {
+        const int32_t ra = root(a);
+        if (ra != rc) rc = unite(rc, ra);
+      }
+      if (!blocked[b]) {
+        const int32_t rb = root(b);
+        if (rb != rc) unite(rc, rb);
+      }
     }
     // Rates of growth of the regions that grew.
-    for (int32_t r : touched_) {
-      if (parent_[r] != r) continue;
-      const int g = size_[r] - prev_size_[r];
-      const bool last_level = hlevel_[r] == v - 1;
-      const int g_prev = last_level ? growth_[r] : 0;
-      const bool was_steady = steady(r, last_level);
-      if (g - g_prev > min_size && was_steady && prev_size_[r] >= min_size) {
-        store(r, prev_size_[r], last_level ? v - 1 : hlevel_[r]);
+    for (int32_t ri : touched_) {
+      PxState& r = px_[ri];
+      if (parent[ri] != ri) continue;
+      const int g = r.size - r.prev_size;
+      const bool last_level = r.hlevel == v - 1;
+      const int g_prev = last_level ? r.growth : 0;
+      if (g - g_prev > min_size && steady(r, last_level) && r.prev_size >= min_size) {
+        store(r, r.prev_size, last_level ? v - 1 : r.hlevel);
       }
-      append(top_head_, top_tail_, r, pend_head_[r], pend_tail_[r]);
-      pend_head_[r] = pend_tail_[r] = -1;
-      growth_before_[r] = g_prev;
-      growth_[r] = g;
-      prev_size_[r] = size_[r];
-      hlevel_[r] = static_cast<int16_t>(v);
+      append_top(r, r.pend_head, r.pend_tail);
+      r.pend_head = r.pend_tail = -1;
+      r.growth_before = g_prev;
+      r.growth = g;
+      r.prev_size = r.size;
+      r.hlevel = static_cast<int16_t>(v);
     }
   }
   // The regions left standing are the roots (line pixels stay out: they are not grown).
   for (size_t i = 0; i < n; ++i) {
-    const int32_t r = static_cast<int32_t>(i);
-    if (parent_[r] != r || blocked_[r]) continue;
-    append(top_head_, top_tail_, r, pend_head_[r], pend_tail_[r]);
-    pend_head_[r] = -1;
-    if (size_[r] < min_size && top_head_[r] < 0) continue;  // a speck: expansion assigns it
-    store(r, size_[r], 255);
+    PxState& r = px_[i];
+    if (parent[i] != static_cast<int32_t>(i) || blocked[i]) continue;
+    append_top(r, r.pend_head, r.pend_tail);
+    r.pend_head = -1;
+    if (r.size < min_size && r.top_head < 0) continue;  // a speck: expansion assigns it
+    store(r, r.size, 255);
   }
   for (size_t i = 0; i < out->tree.size(); ++i)
     if (out->tree[i].children.empty()) out->leaves.push_back(static_cast<int>(i));
@@ -204,25 +227,24 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       parent2_[b] = a;
     }
   };
-  for (uint32_t k = 0; k < tex_.order.size(); ++k) {
-    const uint32_t e = tex_.order[k];
-    const int32_t c = static_cast<int32_t>(e >> 1);
-    if (blocked_[c]) continue;
-    const int32_t step = (e & 1) ? w : 1;
-    const int32_t a = c - step, b = c + step;
-    if (!blocked_[a]) unite(c, a);
-    if (!blocked_[b]) unite(c, b);
-  }
+  // The first pass's merges, replayed in their order: the same growth in the same order of
+  // texture values, refused where two leaves would meet (so a part swallowed there by a region
+  // holding two leaves joins the leaf whose merges reach it first). Elements that merged
+  // nothing there are left out: a third of the work of a second pass over the elements.
+  for (const auto& [a, b] : merges_) unite(a, b);
+  // Every pixel's component, once.
+  root_.resize(n);
+  for (size_t i = 0; i < n; ++i) root_[i] = find(parent2_, static_cast<int32_t>(i));
   // Components to regions: leaves first (in leaf order), then parts no leaf reached.
   out->labels.create(h, w, CV_32S);
   int32_t* lab = out->labels.ptr<int32_t>(0);
   std::vector<int32_t> region_of_root(n, -1);
   std::vector<int> comp_size(n, 0);
   for (size_t i = 0; i < n; ++i)
-    if (!blocked_[i]) ++comp_size[find(parent2_, static_cast<int32_t>(i))];
+    if (!blocked_[i]) ++comp_size[root_[i]];
   out->regions.clear();
   for (size_t li = 0; li < out->leaves.size(); ++li) {
-    const int32_t r = find(parent2_, out->tree[out->leaves[li]].head);
+    const int32_t r = root_[out->tree[out->leaves[li]].head];
     region_of_root[r] = static_cast<int32_t>(out->regions.size());
     Region reg;
     reg.node = out->leaves[li];
@@ -233,7 +255,7 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       lab[i] = -1;
       continue;
     }
-    const int32_t r = find(parent2_, static_cast<int32_t>(i));
+    const int32_t r = root_[i];
     if (region_of_root[r] < 0 && comp_size[r] >= p_.min_size) {
       region_of_root[r] = static_cast<int32_t>(out->regions.size());
       out->regions.push_back(Region{});

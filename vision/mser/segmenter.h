@@ -24,6 +24,8 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -82,24 +84,36 @@ class MserSegmenter {
   // The pixels of tree node `node` of the last segmentation.
   std::vector<int> node_pixels(const Segmentation& s, int node) const;
   const SegmenterParams& params() const { return p_; }
+  // Wall time of each phase of the last segment() call (ms).
+  struct PhaseTimes {
+    double texture = 0, lines = 0, tree = 0, expansion = 0;
+  };
+  const PhaseTimes& phase_times() const { return times_; }
 
  private:
   void build_tree(Segmentation* out);
   void expand(const cv::Mat& bgr, Segmentation* out);
 
   SegmenterParams p_;
+  PhaseTimes times_;
   TextureElements tex_;
   Lines lines_;
   std::vector<uint8_t> blocked_;  // line pixels
-  // Union-find, pass 1.
-  std::vector<int32_t> parent_, size_, head_, tail_, next_;
-  std::vector<int32_t> prev_size_, growth_, growth_before_;
-  std::vector<int16_t> hlevel_;
-  std::vector<int32_t> top_head_, top_tail_, pend_head_, pend_tail_, node_next_;
-  std::vector<int32_t> touched_;
-  std::vector<int16_t> touched_at_;
+  // Union-find, pass 1: the parent links (hot: read for every element), and a region's state
+  // at its root pixel (read where regions meet).
+  std::vector<int32_t> parent_;
+  struct PxState {
+    int32_t size, head, tail;                // its size; its pixel list
+    int32_t prev_size, growth, growth_before;  // sizes and growths at the last levels it grew
+    int16_t hlevel, touched_at;              // the last level it grew; touched this level
+    int32_t top_head, top_tail;              // its maximal MSERs (a list through node_next_)
+    int32_t pend_head, pend_tail;            // ... those it swallowed this level
+  };
+  std::vector<PxState> px_;
+  std::vector<int32_t> next_, node_next_, touched_;
+  std::vector<std::pair<int32_t, int32_t>> merges_;  // pass 1's unions (roots), in order
   // Pass 2.
-  std::vector<int32_t> parent2_, leaf_of_;
+  std::vector<int32_t> parent2_, leaf_of_, root_;
 };
 
 }  // namespace vigil::vision::mser

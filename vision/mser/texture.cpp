@@ -32,9 +32,11 @@ inline int value_from_sum(float sum) {
 
 int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b) {
   const auto& chi = chi_table();
-  float sum = 0;
-  for (int k = 0; k < 3; ++k) sum += chi[c[k] * 256 + a[k]] + chi[c[k] * 256 + b[k]];
-  return value_from_sum(sum);
+  // Summed in the order compute_texture_elements uses (the a side, then the b side), so both
+  // round alike.
+  const float sa = chi[c[0] * 256 + a[0]] + chi[c[1] * 256 + a[1]] + chi[c[2] * 256 + a[2]];
+  const float sb = chi[c[0] * 256 + b[0]] + chi[c[1] * 256 + b[1]] + chi[c[2] * 256 + b[2]];
+  return value_from_sum(sa + sb);
 }
 
 void compute_texture_elements(const cv::Mat& bgr, TextureElements* out) {
@@ -44,25 +46,42 @@ void compute_texture_elements(const cv::Mat& bgr, TextureElements* out) {
   out->height = h;
   const size_t n = static_cast<size_t>(w) * h;
   out->value.assign(2 * n, 256);
-  const auto& chi = chi_table();
   std::array<uint32_t, 257> count{};
+  // Per channel byte: (x - y)^2 / (x + y) as d^2 / max(s, 1) (0 when both are 0), in float
+  // arrays the compiler vectorises; then summed per pixel over its two neighbours.
+  const int m = 3 * w;
+  std::vector<float> left(m), upper(m), lower(m);
   for (int y = 0; y < h; ++y) {
-    const cv::Vec3b* row = bgr.ptr<cv::Vec3b>(y);
-    const cv::Vec3b* up = y > 0 ? bgr.ptr<cv::Vec3b>(y - 1) : nullptr;
-    const cv::Vec3b* down = y + 1 < h ? bgr.ptr<cv::Vec3b>(y + 1) : nullptr;
+    const uint8_t* __restrict row = bgr.ptr<uint8_t>(y);
+    float* __restrict lf = left.data();
+    float* __restrict uf = upper.data();
+    float* __restrict df = lower.data();
+    // left[i]: the term between byte i and byte i - 3 (the pixel to the left).
+    for (int i = 3; i < m; ++i) {
+      const float c = row[i], a = row[i - 3];
+      const float d = c - a;
+      lf[i] = d * d / std::max(c + a, 1.0f);
+    }
+    const bool vert = y > 0 && y + 1 < h;
+    if (vert) {
+      const uint8_t* __restrict up = bgr.ptr<uint8_t>(y - 1);
+      const uint8_t* __restrict down = bgr.ptr<uint8_t>(y + 1);
+      for (int i = 0; i < m; ++i) {
+        const float c = row[i], a = up[i], b = down[i];
+        const float d1 = c - a, d2 = c - b;
+        uf[i] = d1 * d1 / std::max(c + a, 1.0f);
+        df[i] = d2 * d2 / std::max(c + b, 1.0f);
+      }
+    }
     uint16_t* v = out->value.data() + 2 * static_cast<size_t>(y) * w;
     for (int x = 0; x < w; ++x) {
-      const cv::Vec3b c = row[x];
+      const int i = 3 * x;
       if (x > 0 && x + 1 < w) {
-        const cv::Vec3b a = row[x - 1], b = row[x + 1];
-        float sum = 0;
-        for (int k = 0; k < 3; ++k) sum += chi[c[k] * 256 + a[k]] + chi[c[k] * 256 + b[k]];
+        const float sum = (left[i] + left[i + 1] + left[i + 2]) + (left[i + 3] + left[i + 4] + left[i + 5]);
         v[2 * x] = static_cast<uint16_t>(value_from_sum(sum));
       }
-      if (up && down) {
-        const cv::Vec3b a = up[x], b = down[x];
-        float sum = 0;
-        for (int k = 0; k < 3; ++k) sum += chi[c[k] * 256 + a[k]] + chi[c[k] * 256 + b[k]];
+      if (vert) {
+        const float sum = (upper[i] + upper[i + 1] + upper[i + 2]) + (lower[i] + lower[i + 1] + lower[i + 2]);
         v[2 * x + 1] = static_cast<uint16_t>(value_from_sum(sum));
       }
       ++count[v[2 * x]];
