@@ -144,6 +144,56 @@ TEST(MserSegmenter, EveryPixelIsInExactlyOneRegionAndRunsRepeat) {
   EXPECT_GT(s1.regions.size(), 3u);
 }
 
+// Region feed-forward: a still scene seeds the next frame with the unchanged, low-gradient
+// half of every region; each region of the second frame is linked to its donor, and the
+// segmentation stays where it was. A square that moves 3 px keeps its link to itself.
+TEST(MserSegmenter, FeedForwardSeedsAStillSceneAndLinksEachRegionToItsDonor) {
+  cv::Mat a(90, 120, CV_8UC3);
+  cv::RNG rng(21);
+  rng.fill(a, cv::RNG::UNIFORM, 60, 70);
+  cv::rectangle(a, cv::Rect(20, 20, 30, 30), cv::Scalar(200, 60, 40), cv::FILLED);
+  cv::circle(a, {85, 55}, 18, cv::Scalar(40, 180, 220), cv::FILLED);
+  SegmenterParams p;
+  p.feed_forward = true;
+  MserSegmenter seg(p);
+  Segmentation s1, s2, s3;
+  ASSERT_TRUE(seg.segment(a, &s1));
+  EXPECT_EQ(seg.seeded_pixels(), 0) << "the first frame has nothing to seed from";
+  ASSERT_TRUE(seg.segment(a.clone(), &s2));
+  EXPECT_GT(seg.seeded_pixels(), a.rows * a.cols / 3) << "about half of every still region is fed forward";
+  EXPECT_LT(seg.seeded_pixels(), a.rows * a.cols);
+  auto at = [](const Segmentation& s, int x, int y) { return s.labels.at<int32_t>(y, x); };
+  // The square and the disc keep their regions, linked to the last frame's.
+  for (const cv::Point q : {cv::Point(35, 35), cv::Point(85, 55)}) {
+    const Region& r2 = s2.regions[at(s2, q.x, q.y)];
+    EXPECT_EQ(r2.donor, at(s1, q.x, q.y)) << q;
+    EXPECT_GT(r2.seeds, 0);
+    EXPECT_NEAR(r2.size, s1.regions[at(s1, q.x, q.y)].size, 0.05 * r2.size) << q;
+  }
+  // The noisy background, split into unstable pieces in the first frame, is assimilated: fewer
+  // regions, the background's donor one of its own pieces (the chapter: regions that cannot
+  // keep their boundaries are absorbed by similar neighbours).
+  EXPECT_LT(s2.regions.size(), s1.regions.size());
+  const Region& bg2 = s2.regions[at(s2, 5, 80)];
+  EXPECT_NE(bg2.donor, at(s1, 35, 35));
+  EXPECT_NE(bg2.donor, at(s1, 85, 55));
+  EXPECT_GE(bg2.donor, 0);
+  // The square moves 3 px right: most of it is unchanged, so it is still its own donor.
+  cv::Mat b = a.clone();
+  cv::Mat bg(90, 120, CV_8UC3);
+  rng.fill(bg, cv::RNG::UNIFORM, 60, 70);
+  bg(cv::Rect(20, 20, 3, 30)).copyTo(b(cv::Rect(20, 20, 3, 30)));
+  cv::rectangle(b, cv::Rect(23, 20, 30, 30), cv::Scalar(200, 60, 40), cv::FILLED);
+  ASSERT_TRUE(seg.segment(b, &s3));
+  const Region& sq = s3.regions[at(s3, 40, 35)];
+  EXPECT_EQ(sq.donor, at(s2, 35, 35));
+  EXPECT_NEAR(sq.centroid.x, 23 + 14.5, 1.0);
+  // reset(): afresh.
+  seg.reset();
+  ASSERT_TRUE(seg.segment(b, &s3));
+  EXPECT_EQ(seg.seeded_pixels(), 0);
+}
+
 TEST(MserSegmenter, BadInputIsRefusedWithTheReason) {
   MserSegmenter seg;
   Segmentation s;

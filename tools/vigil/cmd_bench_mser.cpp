@@ -88,7 +88,7 @@ void add_bench_mser_command(CLI::App* bench) {
     const int threads = cv::getNumThreads();
     cv::setNumThreads(1);
     std::printf("vigil bench mser: %d frames per source, one thread; ours = lines + MSER tree + region expansion "
-                "(feed-forward and tracking not built yet)\n",
+                "(tracking not built yet)\n",
                 o->frames);
     std::printf("%-28s %9s %10s %8s %12s %8s %11s %8s %9s %9s\n", "source", "size", "ours ms", "fps", "colour MSER",
                 "regions", "grey MSER", "regions", "vs colour", "regions");
@@ -135,12 +135,34 @@ void add_bench_mser_command(CLI::App* bench) {
           t_grey.push_back(ms_since(t0));
           n_grey += regions.size();
         }
+        // Feed-forward on the same consecutive frames, and on a still scene (the first frame
+        // again and again).
+        vision::mser::SegmenterParams ffp;
+        ffp.feed_forward = true;
+        vision::mser::MserSegmenter ff(ffp), still(ffp);
+        std::vector<double> t_ff, t_still;
+        double seeded = 0, seeded_still = 0;
+        for (const auto& f : sized) {
+          auto t0 = Clock::now();
+          ff.segment(f, &out);
+          t_ff.push_back(ms_since(t0));
+          seeded += ff.seeded_pixels();
+          t0 = Clock::now();
+          still.segment(sized[0], &out);
+          t_still.push_back(ms_since(t0));
+          seeded_still += still.seeded_pixels();
+        }
+        const double mf = median(t_ff), ms = median(t_still);
         const double mo = median(t_ours), mc = median(t_col), mg = median(t_grey);
         const double k = 1.0 / static_cast<double>(sized.size());
         std::printf("%-28s %9s %10.2f %8.1f %12.2f %8.0f %11.2f %8.0f %8.1fx %9.0f\n", name.c_str(), size.c_str(), mo,
                     mo > 0 ? 1e3 / mo : 0.0, mc, n_col * k, mg, n_grey * k, mo > 0 ? mc / mo : 0.0, n_ours * k);
         std::printf("%-28s %9s   phases (mean ms): texture %.2f, lines %.2f, MSER tree %.2f, expansion %.2f\n", "",
                     "", ph_tex * k, ph_lines * k, ph_tree * k, ph_exp * k);
+        const double px = static_cast<double>(w) * h;
+        std::printf("%-28s %9s   feed-forward: %.2f ms on the sequence (%.0f%% of pixels seeded), %.2f ms on a still "
+                    "scene (%.0f%% seeded; %.2fx of from scratch)\n",
+                    "", "", mf, 100 * seeded * k / px, ms, 100 * seeded_still * k / px, mo > 0 ? ms / mo : 0.0);
         results.push_back({{"source", name},
                            {"phase_ms", {{"texture", ph_tex * k}, {"lines", ph_lines * k}, {"tree", ph_tree * k}, {"expansion", ph_exp * k}}},
                            {"width", w},
@@ -152,7 +174,11 @@ void add_bench_mser_command(CLI::App* bench) {
                            {"colour_mser_regions", n_col * k},
                            {"grey_mser_median_ms", mg},
                            {"grey_mser_regions", n_grey * k},
-                           {"speedup_over_colour", mo > 0 ? mc / mo : 0.0}});
+                           {"speedup_over_colour", mo > 0 ? mc / mo : 0.0},
+                           {"feed_forward_median_ms", mf},
+                           {"feed_forward_seeded_share", seeded * k / px},
+                           {"still_feed_forward_median_ms", ms},
+                           {"still_seeded_share", seeded_still * k / px}});
       }
     }
     cv::setNumThreads(threads);

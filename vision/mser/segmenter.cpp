@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <cmath>
 #include <string>
 
@@ -41,6 +42,9 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
     lines_.segments.clear();
     lines_.mask = cv::Mat::zeros(bgr.size(), CV_8U);
   }
+  seed_of_.assign(n, -1);
+  seeded_ = seed_groups_ = 0;
+  if (p_.feed_forward && !prev_frame_.empty() && prev_frame_.size() == bgr.size()) make_seeds(bgr);
   const auto t2 = Clock::now();
   out->tree.clear();
   out->leaves.clear();
@@ -49,7 +53,57 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
   expand(bgr, out);
   const auto t4 = Clock::now();
   times_ = {ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4)};
+  if (p_.feed_forward) {
+    bgr.copyTo(prev_frame_);
+    out->labels.copyTo(prev_labels_);
+  }
   return true;
+}
+
+void MserSegmenter::reset() {
+  prev_frame_.release();
+  prev_labels_.release();
+}
+
+void MserSegmenter::make_seeds(const cv::Mat& bgr) {
+  const int w = bgr.cols, h = bgr.rows;
+  const size_t n = static_cast<size_t>(w) * h;
+  const cv::Vec3b* cur = bgr.ptr<cv::Vec3b>(0);
+  const cv::Vec3b* old = prev_frame_.ptr<cv::Vec3b>(0);
+  const int32_t* lab = prev_labels_.ptr<int32_t>(0);
+  double mx = 0;
+  cv::minMaxLoc(prev_labels_, nullptr, &mx);
+  const size_t regions = static_cast<size_t>(mx) + 1;
+  // Per last-frame region: its size, its unchanged pixels, their gradient sum.
+  std::vector<int> size(regions, 0), unchanged(regions, 0);
+  std::vector<double> grad_sum(regions, 0);
+  std::vector<uint8_t> same(n, 0);
+  std::vector<uint16_t> grad(n, 0);
+  const int tol = p_.unchanged_within;
+  for (size_t i = 0; i < n; ++i) {
+    const int r = lab[i];
+    ++size[r];
+    // A pixel's gradient: the larger of its two texture elements (this frame's).
+    const uint16_t th = tex_.value[2 * i], tv = tex_.value[2 * i + 1];
+    grad[i] = static_cast<uint16_t>(std::max(th < 256 ? th : 0, tv < 256 ? tv : 0));
+    grad_sum[r] += grad[i];
+    if (std::abs(cur[i][0] - old[i][0]) <= tol && std::abs(cur[i][1] - old[i][1]) <= tol &&
+        std::abs(cur[i][2] - old[i][2]) <= tol) {
+      same[i] = 1;
+      ++unchanged[r];
+    }
+  }
+  std::vector<int> groups(regions, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const int r = lab[i];
+    if (!same[i] || blocked_[i] || 2 * unchanged[r] <= size[r]) continue;
+    const double mean = grad_sum[r] / std::max(1, size[r]);
+    if (grad[i] < mean || grad[i] < p_.low_gradient) {
+      seed_of_[i] = r;
+      ++seeded_;
+      if (groups[r]++ == 0) ++seed_groups_;
+    }
+  }
 }
 
 void MserSegmenter::build_tree(Segmentation* out) {
@@ -142,6 +196,30 @@ void MserSegmenter::build_tree(Segmentation* out) {
     return a;
   };
   const uint8_t* blocked = blocked_.data();
+  const int32_t* seed = seed_of_.data();
+  // Feed-forward seeds: each last-frame region's seeds one group from the start (no growth
+  // history: they evolve from there), however scattered.
+  if (seeded_ > 0) {
+    std::vector<int32_t> first(static_cast<size_t>(*std::max_element(seed_of_.begin(), seed_of_.end())) + 1, -1);
+    for (size_t i = 0; i < n; ++i) {
+      const int32_t g = seed_of_[i];
+      if (g < 0) continue;
+      if (first[g] < 0) {
+        first[g] = static_cast<int32_t>(i);
+        continue;
+      }
+      const int32_t a = first[g], b = static_cast<int32_t>(i);
+      PxState& A = px_[a];
+      PxState& B = px_[b];
+      parent[b] = a;
+      merges_.push_back({a, b});
+      A.size += B.size;
+      next_[A.tail] = B.head;
+      A.tail = B.tail;
+    }
+    for (int32_t a : first)
+      if (a >= 0) px_[a].prev_size = px_[a].size;
+  }
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
@@ -151,6 +229,11 @@ void MserSegmenter::build_tree(Segmentation* out) {
       if (blocked[c]) continue;
       const int32_t step = (e & 1) ? w : 1;
       const int32_t a = c - step, b = c + step;
+      // A unit inside one feed-forward group is one region already.
+      if (seeded_ > 0) {
+        const int32_t g = seed[c];
+        if (g >= 0 && seed[a] == g && seed[b] == g) continue;
+      }
       // Most units lie inside one region already: compare roots before uniting.
       int32_t rc = root(c);
       if (!blocked[a]) {
@@ -315,6 +398,24 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     }
     for (const auto& [i, r] : assign) lab[i] = r;
     pending.swap(still);
+  }
+  // Feed-forward links: the last frame's region most of a region's seeds came from.
+  if (seeded_ > 0) {
+    std::vector<std::map<int, int>> by_donor(out->regions.size());
+    for (size_t i = 0; i < n; ++i)
+      if (seed_of_[i] >= 0) ++by_donor[lab[i]][seed_of_[i]];
+    for (size_t r = 0; r < out->regions.size(); ++r) {
+      int best = -1, most = 0, total = 0;
+      for (const auto& [d, c] : by_donor[r]) {
+        total += c;
+        if (c > most) {
+          most = c;
+          best = d;
+        }
+      }
+      out->regions[r].donor = best;
+      out->regions[r].seeds = total;
+    }
   }
   // Region statistics.
   const size_t m = out->regions.size();

@@ -38,6 +38,13 @@ namespace vigil::vision::mser {
 struct SegmenterParams {
   int min_size = 24;        // MIN-SIZE (pixels): the chapter's default
   bool use_lines = true;    // line constraint (off: plain colour MSER evolution)
+  // Region feed-forward (10.3.1): pixels unchanged since the last frame (every channel within
+  // `unchanged_within`) in a region whose majority is unchanged, and whose gradient is below the
+  // region's average (or below `low_gradient`), seed this frame's evolution as one group per
+  // region. Off: every frame from scratch.
+  bool feed_forward = false;
+  int unchanged_within = 1;
+  int low_gradient = 8;
   LineParams lines;
 };
 
@@ -58,6 +65,8 @@ struct Region {
   float cxx = 0, cyy = 0, cxy = 0;  // second moments of the pixel positions (covariance, px^2)
   cv::Rect bbox;
   int node = -1;             // the MSER-tree leaf it grew from (-1: a part no leaf reached)
+  int donor = -1;            // feed-forward: the last frame's region most of its seeds came from (-1: none)
+  int seeds = 0;             // feed-forward: pixels it was seeded with
   float width() const;       // 2 sqrt(cxx): the second-moment width (px)
   float height() const;      // 2 sqrt(cyy)
 };
@@ -73,8 +82,14 @@ class MserSegmenter {
  public:
   explicit MserSegmenter(SegmenterParams params = {}) : p_(params) {}
   // Segments a CV_8UC3 image (any size >= 3 x 3; an empty or other-typed image is an error).
-  // Buffers are kept between calls, so a run of frames allocates once.
+  // Buffers are kept between calls, so a run of frames allocates once. With feed_forward, the
+  // last call's frame and segmentation seed this one (a frame of another size starts afresh).
   bool segment(const cv::Mat& bgr, Segmentation* out, std::string* error = nullptr);
+  // Forgets the last frame (feed-forward starts afresh).
+  void reset();
+  // Feed-forward seeds of the last call: pixels seeded (and the groups they formed).
+  int seeded_pixels() const { return seeded_; }
+  int seed_groups() const { return seed_groups_; }
 
   const Lines& lines() const { return lines_; }
   const TextureElements& texture() const { return tex_; }
@@ -114,6 +129,11 @@ class MserSegmenter {
   std::vector<std::pair<int32_t, int32_t>> merges_;  // pass 1's unions (roots), in order
   // Pass 2.
   std::vector<int32_t> parent2_, leaf_of_, root_;
+  // Feed-forward: the last frame and its labels; this frame's seeds (donor region per pixel).
+  cv::Mat prev_frame_, prev_labels_;
+  std::vector<int32_t> seed_of_;
+  int seeded_ = 0, seed_groups_ = 0;
+  void make_seeds(const cv::Mat& bgr);
 };
 
 }  // namespace vigil::vision::mser
