@@ -3,12 +3,14 @@
 // whose answer is known, the line constraint, determinism and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
 
 #include <opencv2/imgproc.hpp>
 
+#include "vision/mser/region_tracker.h"
 #include "vision/mser/segmenter.h"
 #include "vision/mser/texture.h"
 
@@ -192,6 +194,78 @@ TEST(MserSegmenter, FeedForwardSeedsAStillSceneAndLinksEachRegionToItsDonor) {
   seg.reset();
   ASSERT_TRUE(seg.segment(b, &s3));
   EXPECT_EQ(seg.seeded_pixels(), 0);
+}
+
+// A frame: flat grey noise with a red square at (x, y) (or none) and a fixed blue disc.
+cv::Mat scene(int x, int y, bool square = true) {
+  cv::Mat img(100, 140, CV_8UC3);
+  cv::RNG rng(4);  // the same background every frame
+  rng.fill(img, cv::RNG::UNIFORM, 100, 104);
+  cv::circle(img, {110, 70}, 15, cv::Scalar(200, 80, 30), cv::FILLED);
+  if (square) cv::rectangle(img, cv::Rect(x, y, 24, 24), cv::Scalar(30, 40, 210), cv::FILLED);
+  return img;
+}
+
+int64_t id_at(const Segmentation& s, const std::vector<int64_t>& ids, int x, int y) {
+  return ids[s.labels.at<int32_t>(y, x)];
+}
+
+TEST(MserTracking, FeedForwardTrackingLinksEachRegionToItsDonor) {
+  SegmenterParams p;
+  p.feed_forward = true;
+  MserSegmenter seg(p);
+  RegionTracker tr;
+  Segmentation s1, s2;
+  ASSERT_TRUE(seg.segment(scene(20, 20), &s1));
+  const auto ids1 = tr.update(s1);
+  EXPECT_EQ(tr.counts().created, static_cast<int>(std::count_if(ids1.begin(), ids1.end(), [](int64_t i) { return i > 0; })));
+  ASSERT_TRUE(seg.segment(scene(22, 20), &s2));  // the square moves 2 px: most of it unchanged
+  const auto ids2 = tr.update(s2);
+  EXPECT_EQ(id_at(s2, ids2, 32, 32), id_at(s1, ids1, 32, 32)) << "the square";
+  EXPECT_EQ(id_at(s2, ids2, 110, 70), id_at(s1, ids1, 110, 70)) << "the disc";
+  EXPECT_GE(tr.counts().feed_forward, 2);
+}
+
+TEST(MserTracking, MserTrackingLinksByPositionSizeAndColourAndNothingElse) {
+  MserSegmenter seg;  // no feed-forward: phase 2 does the work
+  RegionTracker tr;
+  Segmentation s1, s2;
+  ASSERT_TRUE(seg.segment(scene(20, 20), &s1));
+  const auto ids1 = tr.update(s1);
+  cv::Mat f2 = scene(25, 22);
+  cv::rectangle(f2, cv::Rect(60, 60, 20, 20), cv::Scalar(40, 200, 40), cv::FILLED);  // a newcomer
+  ASSERT_TRUE(seg.segment(f2, &s2));
+  const auto ids2 = tr.update(s2);
+  EXPECT_EQ(id_at(s2, ids2, 37, 34), id_at(s1, ids1, 32, 32)) << "moved 5 px: the same track";
+  EXPECT_EQ(id_at(s2, ids2, 110, 70), id_at(s1, ids1, 110, 70));
+  const int64_t newcomer = id_at(s2, ids2, 70, 70);
+  for (int64_t old : ids1) EXPECT_NE(newcomer, old) << "a new object is a new track";
+  EXPECT_GE(tr.counts().mser, 2);
+  EXPECT_EQ(tr.counts().feed_forward, 0);
+}
+
+TEST(MserTracking, SecondaryTrackingFindsALostRegionWhereItsMotionPutsIt) {
+  MserSegmenter seg;
+  RegionTracker tr;
+  Segmentation s;
+  int64_t square = -1;
+  // The square moves 6 px a frame, vanishes for two frames, comes back where its motion says.
+  for (int f = 0; f < 3; ++f) {
+    ASSERT_TRUE(seg.segment(scene(10 + 6 * f, 20), &s));
+    const auto ids = tr.update(s);
+    const int64_t id = id_at(s, ids, 10 + 6 * f + 12, 32);
+    if (f == 0) square = id;
+    EXPECT_EQ(id, square) << "frame " << f;
+  }
+  ASSERT_TRUE(seg.segment(scene(0, 0, false), &s));
+  tr.update(s);
+  ASSERT_TRUE(seg.segment(scene(0, 0, false), &s));
+  tr.update(s);
+  const int x = 10 + 6 * 5;  // two frames on
+  ASSERT_TRUE(seg.segment(scene(x, 20), &s));
+  const auto ids = tr.update(s);
+  EXPECT_EQ(tr.counts().secondary, 1);
+  EXPECT_EQ(id_at(s, ids, x + 12, 32), square) << "the lost square's track again";
 }
 
 TEST(MserSegmenter, BadInputIsRefusedWithTheReason) {
