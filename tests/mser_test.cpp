@@ -8,8 +8,14 @@
 #include <map>
 #include <set>
 
-#include <opencv2/imgproc.hpp>
+#include <filesystem>
+#include <fstream>
 
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "tests/test_util.h"
+#include "vision/mser/mser_system.h"
 #include "vision/mser/region_tracker.h"
 #include "vision/mser/segmenter.h"
 #include "vision/mser/texture.h"
@@ -266,6 +272,87 @@ TEST(MserTracking, SecondaryTrackingFindsALostRegionWhereItsMotionPutsIt) {
   const auto ids = tr.update(s);
   EXPECT_EQ(tr.counts().secondary, 1);
   EXPECT_EQ(id_at(s, ids, x + 12, 32), square) << "the lost square's track again";
+}
+
+// The system on a scripted sequence: a still scene (a noisy floor, a wall band, a box) learns
+// its region background; a figure that walks in afterwards is foreground, one object with one id
+// whose box follows it; the still parts are never objects.
+TEST(MserSystem, AFigureWalkingInFrontOfALearnedBackgroundIsOneObject) {
+  auto frame = [](int f) {
+    cv::Mat img(120, 160, CV_8UC3);
+    cv::RNG rng(f * 7 + 1);
+    rng.fill(img, cv::RNG::UNIFORM, 110, 116);
+    cv::rectangle(img, cv::Rect(0, 0, 160, 30), cv::Scalar(170, 170, 175), cv::FILLED);   // a wall band
+    cv::rectangle(img, cv::Rect(120, 70, 25, 25), cv::Scalar(40, 90, 160), cv::FILLED);   // a box
+    if (f >= 25) {  // the figure: a dark torso over blue legs, walking right 3 px a frame
+      const int x = 10 + 3 * (f - 25);
+      cv::rectangle(img, cv::Rect(x, 40, 14, 22), cv::Scalar(40, 40, 40), cv::FILLED);
+      cv::rectangle(img, cv::Rect(x + 2, 62, 10, 20), cv::Scalar(150, 60, 30), cv::FILLED);
+    }
+    return img;
+  };
+  MserSystem sys;
+  std::set<int64_t> ids;
+  int whole = 0, frames = 0;
+  for (int f = 0; f < 45; ++f) {
+    ASSERT_TRUE(sys.process(frame(f)));
+    const auto objs = sys.objects();
+    if (f < 25) {
+      EXPECT_TRUE(objs.empty()) << "frame " << f << ": nothing moves yet";
+      continue;
+    }
+    if (f < 28) continue;  // the figure enters
+    ASSERT_LE(objs.size(), 1u) << "frame " << f << ": the figure, nothing else";
+    if (objs.empty()) continue;  // a frame where its box jumped (see below) and it is tentative again
+    ++frames;
+    ids.insert(objs[0].id);
+    const int x = 10 + 3 * (f - 25);
+    EXPECT_NEAR(objs[0].box.x + 0.5 * objs[0].box.width, x + 7, 4) << "frame " << f;
+    // The whole figure (torso and legs); in a frame now and then the torso's region is lost in
+    // the floor's (docs/MSER.md, not built: object models that would bridge it).
+    whole += std::abs(objs[0].box.y - 40) <= 4 && std::abs(objs[0].box.height - 42) <= 6;
+  }
+  EXPECT_GE(frames, 17 - 4) << "the figure reported in all but a few of its 17 frames";
+  EXPECT_GE(whole, frames - 2) << "the whole figure in all but a frame or two";
+  EXPECT_LE(ids.size(), 2u) << "one identity, or two around such a frame";
+  EXPECT_GT(sys.background_entries(), 2);
+}
+
+// vigil track --pipeline mser on a mono video: MOTChallenge lines for the walking figure, and a
+// missing video refused naming it.
+TEST(MserSystem, VigilTrackWritesMotChallengeBoxesFromAMonoVideo) {
+  const std::filesystem::path dir = test::fresh_temp_dir("mser", "track");
+  const std::string avi = (dir / "walk.avi").string();
+  {
+    cv::VideoWriter w(avi, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10, cv::Size(160, 120));
+    ASSERT_TRUE(w.isOpened());
+    for (int f = 0; f < 40; ++f) {
+      cv::Mat img(120, 160, CV_8UC3, cv::Scalar(112, 112, 112));
+      cv::rectangle(img, cv::Rect(0, 0, 160, 30), cv::Scalar(170, 170, 175), cv::FILLED);
+      if (f >= 25) cv::rectangle(img, cv::Rect(10 + 3 * (f - 25), 40, 14, 40), cv::Scalar(40, 40, 160), cv::FILLED);
+      w.write(img);
+    }
+  }
+  const auto out = test::vigil_cmd("track --pipeline mser --source video:" + avi + " --out " + (dir / "out").string() + " -q");
+  ASSERT_EQ(out.code, 0) << out.out;
+  std::ifstream in(dir / "out" / "tracks.txt");
+  int lines = 0;
+  for (std::string l; std::getline(in, l);) {
+    int frame, id, x, y, w, h;
+    ASSERT_EQ(std::sscanf(l.c_str(), "%d,%d,%d,%d,%d,%d,1,-1,-1,-1", &frame, &id, &x, &y, &w, &h), 6) << l;
+    EXPECT_GE(frame, 26);  // frames count from 1; nothing before the figure
+    const int f = frame - 1;
+    const cv::Rect truth(10 + 3 * (f - 25), 40, 14, 40), box(x, y, w, h);
+    const double iou = static_cast<double>((truth & box).area()) / (truth | box).area();
+    EXPECT_GE(iou, 0.5) << l;
+    ++lines;
+  }
+  EXPECT_GE(lines, 10);
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "annotated.avi"));
+  const auto bad = test::vigil_cmd("track --pipeline mser --source video:/nonexistent/walk.avi --out " + (dir / "bad").string());
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("/nonexistent/walk.avi"), std::string::npos) << bad.out;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(MserSegmenter, BadInputIsRefusedWithTheReason) {

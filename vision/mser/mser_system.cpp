@@ -1,0 +1,293 @@
+#include "vision/mser/mser_system.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <tuple>
+
+#include <opencv2/imgproc.hpp>
+
+#include "vision/mser/kd_tree.h"
+
+namespace vigil::vision::mser {
+namespace {
+
+SegmenterParams with_feed_forward(SegmenterParams p) {
+  p.feed_forward = true;
+  return p;
+}
+
+double iou(const cv::Rect& a, const cv::Rect& b) {
+  const int inter = (a & b).area();
+  const int uni = a.area() + b.area() - inter;
+  return uni > 0 ? static_cast<double>(inter) / uni : 0.0;
+}
+
+}  // namespace
+
+MserSystem::MserSystem(MserSystemParams params)
+    : p_(params), seg_(with_feed_forward(params.segmenter)), tracker_(params.tracking) {}
+
+void MserSystem::reset() {
+  seg_.reset();
+  tracker_.reset();
+  model_.clear();
+  info_.clear();
+  objects_.clear();
+  next_object_ = 1;
+  frame_ = 0;
+  moved_background_ = 0;
+  reshaped_background_ = 0;
+  model_image_.release();
+}
+
+bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
+  if (!seg_.segment(bgr, &seg_out_, error)) return false;
+  region_ids_ = tracker_.update(seg_out_);
+  // Track statistics: frames seen, how far it moved.
+  for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
+    const int64_t id = region_ids_[r];
+    if (id <= 0) continue;
+    TrackInfo& t = info_[id];
+    if (t.seen > 0) t.moved += cv::norm(seg_out_.regions[r].centroid - t.last);
+    t.last = seg_out_.regions[r].centroid;
+    ++t.seen;
+  }
+  ++frame_;
+  if (frame_ > p_.warmup_frames && frame_ <= p_.warmup_frames + p_.learn_frames) learn();
+  classify();
+  update_objects();
+  // Forget the statistics of tracks gone for good.
+  if (frame_ % 50 == 0) {
+    std::set<int64_t> live;
+    for (const auto& t : tracker_.tracks()) live.insert(t.id);
+    for (auto it = info_.begin(); it != info_.end();) it = live.count(it->first) ? std::next(it) : info_.erase(it);
+  }
+  return true;
+}
+
+int MserSystem::best_entry(const std::vector<Entry>& model, const KdTree2* tree, const Region& reg) const {
+  const float w = reg.width(), h = reg.height();
+  const double radius = p_.bg_shift + 0.25 * (w + h);
+  int best = -1;
+  double best_d = 1e300;
+  auto consider = [&](int e) {
+    const Entry& m = model[e];
+    const double rw = std::max(w, 1.0f) / std::max(m.width, 1.0f), rh = std::max(h, 1.0f) / std::max(m.height, 1.0f);
+    if (rw > p_.bg_size_ratio || rw < 1 / p_.bg_size_ratio || rh > p_.bg_size_ratio || rh < 1 / p_.bg_size_ratio) return;
+    const double dp = cv::norm(reg.centroid - m.centroid);
+    if (dp > radius) return;
+    const double dc = cv::norm(reg.mean - m.colour);
+    if (dc > p_.bg_colour) return;
+    const double d = dp / radius + dc / p_.bg_colour;
+    if (d < best_d) {
+      best_d = d;
+      best = e;
+    }
+  };
+  if (tree) {
+    for (int e : tree->within(reg.centroid, static_cast<float>(radius))) consider(e);
+  } else {
+    for (size_t e = 0; e < model.size(); ++e) consider(static_cast<int>(e));
+  }
+  return best;
+}
+
+// Learning: every region of every learning frame is matched against the candidates so far (the
+// same features and limits as in operation); a match refines the candidate, no match adds one.
+// At the end, the candidates seen in at least half the learning frames, moving little, are the
+// model.
+void MserSystem::learn() {
+  std::vector<std::pair<cv::Point2f, int>> pts;
+  for (size_t i = 0; i < candidates_.size(); ++i) pts.push_back({candidates_[i].centroid, static_cast<int>(i)});
+  const KdTree2 tree(std::move(pts));
+  const size_t before = candidates_.size();
+  std::vector<int64_t> seen_this_frame(before, -1);
+  for (const Region& reg : seg_out_.regions) {
+    if (reg.size < p_.tracking.min_size) continue;
+    const int e = before ? best_entry(candidates_, &tree, reg) : -1;
+    if (e >= 0 && seen_this_frame[e] != frame_) {
+      seen_this_frame[e] = frame_;
+      Entry& m = candidates_[e];
+      const float k = 1.0f / static_cast<float>(++m.count);
+      m.moved += cv::norm(reg.centroid - m.centroid);
+      m.centroid += k * (reg.centroid - m.centroid);
+      m.width += k * (reg.width() - m.width);
+      m.height += k * (reg.height() - m.height);
+      m.colour += k * (reg.mean - m.colour);
+    } else if (e < 0) {
+      candidates_.push_back({reg.centroid, reg.width(), reg.height(), reg.mean, 1, 0.0});
+    }
+  }
+  if (frame_ == p_.warmup_frames + p_.learn_frames) {
+    // The model's picture: every pixel in its region's mean colour, as last learned.
+    model_image_.create(seg_out_.labels.size(), CV_32FC3);
+    const int32_t* l = seg_out_.labels.ptr<int32_t>(0);
+    cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
+    for (size_t i = 0; i < model_image_.total(); ++i) mi[i] = seg_out_.regions[l[i]].mean;
+    for (const Entry& m : candidates_)
+      // Still: its matches stayed within `still_speed` px of it, plus 2 % of its size (a large
+      // region's centroid shifts as people cross it).
+      if (2 * m.count >= p_.learn_frames &&
+          m.moved / std::max(1, m.count - 1) <= p_.still_speed + 0.02 * (m.width + m.height))
+        model_.push_back(m);
+    candidates_.clear();
+  }
+}
+
+void MserSystem::classify() {
+  const cv::Mat& lab = seg_out_.labels;
+  fg_ = cv::Mat::zeros(lab.size(), CV_8U);
+  if (learning()) return;
+  std::vector<std::pair<cv::Point2f, int>> pts;
+  for (size_t i = 0; i < model_.size(); ++i) pts.push_back({model_[i].centroid, static_cast<int>(i)});
+  const KdTree2 tree(std::move(pts));
+  std::vector<char> is_fg(seg_out_.regions.size(), 0);
+  std::vector<Entry> absorb;
+  // Per region: the model picture's mean colour under it (a background region whose shape
+  // changed, cut by something passing in front, still has the model's colours under it).
+  std::vector<cv::Vec3d> under(seg_out_.regions.size(), cv::Vec3d(0, 0, 0));
+  {
+    const int32_t* l = lab.ptr<int32_t>(0);
+    const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
+    for (size_t i = 0; i < lab.total(); ++i) under[l[i]] += cv::Vec3d(mi[i][0], mi[i][1], mi[i][2]);
+  }
+  for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
+    const Region& reg = seg_out_.regions[r];
+    const float w = reg.width(), h = reg.height();
+    const int best = best_entry(model_, &tree, reg);
+    const int64_t id = region_ids_[r];
+    TrackInfo* t = id > 0 ? &info_[id] : nullptr;
+    if (best >= 0) {
+      Entry& m = model_[best];
+      const float a = static_cast<float>(p_.adapt);
+      m.centroid = (1 - a) * m.centroid + a * reg.centroid;
+      m.width = (1 - a) * m.width + a * w;
+      m.height = (1 - a) * m.height + a * h;
+      m.colour = (1 - a) * m.colour + a * reg.mean;
+      if (t) {
+        t->background = true;
+        t->still_foreground = 0;
+      }
+      continue;
+    }
+    if (reg.size < p_.tracking.min_size) continue;  // specks: neither
+    const cv::Vec3d u = under[r] / std::max(1, reg.size);
+    if (cv::norm(cv::Vec3d(reg.mean[0], reg.mean[1], reg.mean[2]) - u) <= p_.bg_colour) {
+      ++reshaped_background_;  // the model's colours under it: background, reshaped
+      continue;
+    }
+    is_fg[r] = 1;
+    if (t) {
+      if (t->background) ++moved_background_;  // a background region that changed unexpectedly
+      t->background = false;
+      // Still for long: taken into the model.
+      if (++t->still_foreground >= p_.absorb_frames) {
+        absorb.push_back({reg.centroid, w, h, reg.mean, 1, 0.0});
+        t->still_foreground = 0;
+      }
+    }
+  }
+  model_.insert(model_.end(), absorb.begin(), absorb.end());
+  const int32_t* l = lab.ptr<int32_t>(0);
+  uint8_t* f = fg_.ptr<uint8_t>(0);
+  const size_t n = lab.total();
+  for (size_t i = 0; i < n; ++i) f[i] = is_fg[l[i]] ? 255 : 0;
+}
+
+void MserSystem::update_objects() {
+  std::vector<cv::Rect> boxes;
+  std::vector<int> areas;
+  if (!learning()) {
+    cv::Mat closed;
+    const int k = std::max(1, p_.close_px);
+    cv::morphologyEx(fg_, closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
+    cv::Mat cc, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(closed, cc, stats, centroids, 8, CV_32S);
+    const double min_area = p_.min_object_area * static_cast<double>(fg_.total());
+    for (int i = 1; i < n; ++i) {
+      const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+      if (area < min_area) continue;
+      const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                         stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+      // Foreground (before closing) within the component's box.
+      const int fg_px = cv::countNonZero(fg_(box) & (cc(box) == i));
+      if (fg_px < p_.min_fill * box.area()) continue;
+      boxes.push_back({stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP), stats.at<int>(i, cv::CC_STAT_WIDTH),
+                       stats.at<int>(i, cv::CC_STAT_HEIGHT)});
+      areas.push_back(area);
+    }
+  }
+  // Greedy by overlap with each object's predicted box.
+  std::vector<std::tuple<double, size_t, size_t>> pairs;
+  for (size_t o = 0; o < objects_.size(); ++o) {
+    cv::Rect pred = objects_[o].box;
+    const cv::Point2f shift = objects_[o].velocity * static_cast<float>(objects_[o].lost + 1);
+    pred.x += static_cast<int>(std::lround(shift.x));
+    pred.y += static_cast<int>(std::lround(shift.y));
+    for (size_t b = 0; b < boxes.size(); ++b) {
+      const double v = iou(pred, boxes[b]);
+      if (v >= p_.min_iou) pairs.push_back({-v, o, b});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<char> used_o(objects_.size(), 0), used_b(boxes.size(), 0);
+  std::vector<ImageObject> next;
+  for (const auto& [neg, o, b] : pairs) {
+    if (used_o[o] || used_b[b]) continue;
+    used_o[o] = used_b[b] = 1;
+    ImageObject obj = objects_[o];
+    const cv::Point2f c0(obj.box.x + 0.5f * obj.box.width, obj.box.y + 0.5f * obj.box.height);
+    const cv::Point2f c1(boxes[b].x + 0.5f * boxes[b].width, boxes[b].y + 0.5f * boxes[b].height);
+    obj.velocity = 0.5f * obj.velocity + 0.5f * (c1 - c0) / static_cast<float>(obj.lost + 1);
+    obj.box = boxes[b];
+    obj.area = areas[b];
+    obj.lost = 0;
+    ++obj.age;
+    next.push_back(obj);
+  }
+  for (size_t o = 0; o < objects_.size(); ++o) {
+    if (used_o[o]) continue;
+    ImageObject obj = objects_[o];
+    if (++obj.lost <= p_.keep_lost) next.push_back(obj);
+  }
+  for (size_t b = 0; b < boxes.size(); ++b) {
+    if (used_b[b]) continue;
+    ImageObject obj;
+    obj.id = next_object_++;
+    obj.box = boxes[b];
+    obj.area = areas[b];
+    next.push_back(obj);
+  }
+  std::sort(next.begin(), next.end(), [](const ImageObject& a, const ImageObject& b) { return a.id < b.id; });
+  objects_.swap(next);
+}
+
+std::vector<ImageObject> MserSystem::objects() const {
+  std::vector<ImageObject> out;
+  for (const auto& o : objects_)
+    if (o.lost == 0 && o.age + 1 >= p_.confirm_frames) out.push_back(o);
+  return out;
+}
+
+cv::Mat MserSystem::annotate(const cv::Mat& bgr) const {
+  cv::Mat img(bgr.size(), CV_8UC3);
+  const int32_t* l = seg_out_.labels.ptr<int32_t>(0);
+  cv::Vec3b* px = img.ptr<cv::Vec3b>(0);
+  for (size_t i = 0; i < img.total(); ++i) {
+    const cv::Vec3f& m = seg_out_.regions[l[i]].mean;
+    px[i] = cv::Vec3b(cv::saturate_cast<uint8_t>(m[0]), cv::saturate_cast<uint8_t>(m[1]), cv::saturate_cast<uint8_t>(m[2]));
+  }
+  img.setTo(cv::Scalar(0, 220, 0), seg_.lines().mask);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(fg_.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  cv::drawContours(img, contours, -1, cv::Scalar(255, 0, 255), 1);
+  for (const auto& o : objects()) {
+    cv::rectangle(img, o.box, cv::Scalar(0, 0, 255), 2);
+    cv::putText(img, std::to_string(o.id), o.box.tl() + cv::Point(2, 14), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1);
+  }
+  if (learning()) cv::putText(img, "learning the background", {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 255, 255), 2);
+  return img;
+}
+
+}  // namespace vigil::vision::mser

@@ -1,0 +1,131 @@
+// The colour MSER camera system of chapter 10.3 on a mono video, as far as it is built: the
+// segmenter with region feed-forward (segmenter.h), region tracking (region_tracker.h), the
+// region-based background model (10.3.3) and objects from the foreground regions.
+//
+// Background model (10.3.3). After `warmup_frames` (feed-forward assimilates unstable pieces
+// over the first frames, so the segmentation settles), the next `learn_frames` frames build it: every region of every
+// learning frame is matched against the candidates so far by the tracking features (centroid,
+// second-moment width and height, mean colour; the same limits as in operation); those seen in
+// at least half the learning frames, moving under `still_speed` px a frame, are the model. Afterwards each region is
+// background when a model entry matches it (kd-tree candidates by centroid, then size and colour
+// limits); matching entries follow their region slowly (`adapt`). A region that matches no
+// entry but whose colour is the model's under it (the learned regions' mean colours, per pixel)
+// is a background region whose shape changed (cut by someone passing in front): background. Any
+// other region is foreground; one whose track was background is a background region behaving
+// unexpectedly (counted in `moved_background`). A foreground region
+// that stays still for `absorb_frames` frames is taken into the model.
+//
+// Objects. The foreground regions' pixels, closed with a `close_px` square, give connected
+// components; those of at least `min_object_area` of the image, filled with foreground to at
+// least `min_fill` of their box, are objects, linked over frames greedily by box overlap (IoU at
+// least `min_iou`) with a constant-velocity prediction, kept `keep_lost` frames when unseen, and
+// reported once seen `confirm_frames` frames (a new object is tentative before). Object modelling with MSER-pair hash votes (10.3.4) is not
+// built yet.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "vision/mser/region_tracker.h"
+#include "vision/mser/segmenter.h"
+
+namespace vigil::vision::mser {
+
+struct MserSystemParams {
+  SegmenterParams segmenter;      // feed_forward is switched on
+  RegionTrackerParams tracking;
+  int warmup_frames = 10;  // frames for the feed-forward segmentation to settle before learning
+  int learn_frames = 10;
+  double still_speed = 1.0;       // px per frame
+  double bg_shift = 6;            // px, plus a quarter of width + height
+  double bg_size_ratio = 1.6;
+  double bg_colour = 25;
+  double adapt = 0.05;
+  int absorb_frames = 300;
+  int close_px = 7;
+  double min_object_area = 0.002;  // of the image
+  double min_fill = 0.4;           // foreground pixels over box area (scattered specks are not objects)
+  int confirm_frames = 3;          // an object is reported once seen this many frames running
+  double min_iou = 0.25;
+  int keep_lost = 5;
+};
+
+struct ImageObject {
+  int64_t id = 0;
+  cv::Rect box;
+  int area = 0;        // foreground pixels
+  int age = 0, lost = 0;
+  cv::Point2f velocity;  // of the box centre, px per frame
+};
+
+class MserSystem {
+ public:
+  explicit MserSystem(MserSystemParams params = {});
+  // One frame (CV_8UC3). False with `error` on bad input.
+  bool process(const cv::Mat& bgr, std::string* error = nullptr);
+  void reset();
+
+  const Segmentation& segmentation() const { return seg_out_; }
+  const std::vector<int64_t>& region_tracks() const { return region_ids_; }
+  const cv::Mat& foreground() const { return fg_; }  // CV_8U, 255 on foreground regions
+  // Objects seen this frame (lost == 0) and confirmed.
+  std::vector<ImageObject> objects() const;
+  bool learning() const { return frame_ < p_.warmup_frames + p_.learn_frames; }
+  int background_entries() const { return static_cast<int>(model_.size()); }
+  // The model: each entry's centroid, width, height and mean colour.
+  std::vector<std::tuple<cv::Point2f, float, float, cv::Vec3f>> background_model() const {
+    std::vector<std::tuple<cv::Point2f, float, float, cv::Vec3f>> out;
+    for (const auto& e : model_) out.push_back({e.centroid, e.width, e.height, e.colour});
+    return out;
+  }
+  int moved_background() const { return moved_background_; }
+  // Regions matching no model entry but lying on the model's colours (a background region cut
+  // by something in front): taken as background.
+  int reshaped_background() const { return reshaped_background_; }
+  int64_t frames() const { return frame_; }
+  // The frame with the segmentation's mean colours, the lines (green), the foreground outlined
+  // and the objects' boxes and ids.
+  cv::Mat annotate(const cv::Mat& bgr) const;
+  const MserSegmenter& segmenter() const { return seg_; }
+
+ private:
+  struct Entry {
+    cv::Point2f centroid;
+    float width = 0, height = 0;
+    cv::Vec3f colour;
+    int count = 1;       // learning: frames it was seen in
+    double moved = 0;    // learning: how far its matches' centroids were from it, summed
+  };
+  struct TrackInfo {
+    int seen = 0;
+    double moved = 0;
+    bool background = false;
+    int still_foreground = 0;
+    cv::Point2f last;
+  };
+  void learn();
+  void classify();
+  int best_entry(const std::vector<Entry>& model, const class KdTree2* tree, const Region& reg) const;
+  void update_objects();
+
+  MserSystemParams p_;
+  MserSegmenter seg_;
+  RegionTracker tracker_;
+  Segmentation seg_out_;
+  std::vector<int64_t> region_ids_;
+  std::vector<Entry> model_, candidates_;
+  std::map<int64_t, TrackInfo> info_;
+  cv::Mat fg_;
+  std::vector<ImageObject> objects_;
+  int64_t next_object_ = 1;
+  int64_t frame_ = 0;
+  int moved_background_ = 0, reshaped_background_ = 0;
+  cv::Mat model_image_;  // CV_32FC3: the learned regions' mean colours, per pixel
+};
+
+}  // namespace vigil::vision::mser
