@@ -154,6 +154,15 @@ Status EventServer::poll(double timeout_s, Log* log) {
   return Status::Ok();
 }
 
+RobotTask incident_task(const Incident& in) {
+  RobotTask t;
+  t.id = in.id;
+  t.kind = in.cancelled ? "cancel_incident" : "incident";
+  t.goal = {in.position.x, in.position.y};
+  t.label = std::string(vision::to_string(in.kind));
+  return t;
+}
+
 Result<std::unique_ptr<IncidentSubscriber>> IncidentSubscriber::create(const Participant& p, const TopicQos& qos) {
   auto r = Reader::create(p, Topic::kMapEvents, qos);
   if (!r) return r.error();

@@ -22,6 +22,7 @@
 #include "plugins/dds_bridge/dds.h"
 #include "vision/event.h"
 #include "vision/stereo_camera_model.h"
+#include "world/plugin.h"
 
 namespace vigil::dds {
 
@@ -95,6 +96,10 @@ class EventServer {
   std::unique_ptr<Reader> reader_;
   std::unique_ptr<Writer> writer_;
 };
+
+// An incident as a team robot's task: kind "incident" (or "cancel_incident"), its id, its
+// map position as the goal and its kind ("left_bag", ...) as the label (plugins/team).
+RobotTask incident_task(const Incident& in);
 
 // Reads incidents (a robot's or a monitor's side).
 class IncidentSubscriber {

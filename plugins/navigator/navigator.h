@@ -612,10 +612,21 @@ class Navigator : public Plugin {
     }
   }
 
+  // Calls fn(x, y) for every valid laser return, in the robot frame.
+  template <class Fn>
+  void for_each_return(const RobotState& me, Fn&& fn) const {
+    if (!me.scan) return;
+    const LaserScan& s = *me.scan;
+    for (size_t i = 0; i < s.ranges.size(); ++i) {
+      const double r = s.ranges[i];
+      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment + ctx_.laser_mount.yaw;
+      fn(ctx_.laser_mount.x + r * std::cos(a), ctx_.laser_mount.y + r * std::sin(a));
+    }
+  }
+
   // Distance from the robot's front to the nearest laser return in the corridor it sweeps.
   double clear_ahead(const RobotState& me) const {
-    if (!me.scan) return 1e9;
-    const LaserScan& s = *me.scan;
     // The body's own width and 2 cm: paths keep inflation_padding (5 cm) more from walls than
     // the disc covering the body, so a wall beside a path that hugs it is not taken for
     // something in the way. A box-shaped body driving forward sweeps only its own half width
@@ -623,49 +634,24 @@ class Navigator : public Plugin {
     const double body = ctx_.body_half_width > 0 ? std::min(ctx_.body_half_width, ctx_.robot_radius) : ctx_.robot_radius;
     const double half_width = body + 0.02;
     double best = 1e9;
-    for (size_t i = 0; i < s.ranges.size(); ++i) {
-      const double r = s.ranges[i];
-      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
-      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment;
-      // Return in the robot frame.
-      const double x = ctx_.laser_mount.x + r * std::cos(a + ctx_.laser_mount.yaw);
-      const double y = ctx_.laser_mount.y + r * std::sin(a + ctx_.laser_mount.yaw);
-      if (x <= 0 || std::abs(y) > half_width) continue;
-      best = std::min(best, x - ctx_.robot_radius);
-    }
+    for_each_return(me, [&](double x, double y) {
+      if (x > 0 && std::abs(y) <= half_width) best = std::min(best, x - ctx_.robot_radius);
+    });
     return best;
   }
 
   // Distance from the body's centre to the nearest laser return (infinite without a scan).
   double nearest_return(const RobotState& me) const {
     double best = 1e9;
-    if (!me.scan) return best;
-    const LaserScan& s = *me.scan;
-    for (size_t i = 0; i < s.ranges.size(); ++i) {
-      const double r = s.ranges[i];
-      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
-      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment;
-      best = std::min(best, std::hypot(ctx_.laser_mount.x + r * std::cos(a + ctx_.laser_mount.yaw),
-                                       ctx_.laser_mount.y + r * std::sin(a + ctx_.laser_mount.yaw)));
-    }
+    for_each_return(me, [&](double x, double y) { best = std::min(best, std::hypot(x, y)); });
     return best;
   }
 
   // Nothing the laser sees within the disc the body sweeps turning in place, and 3 cm (a disc
   // body sweeps nothing new turning: always clear).
   bool turn_clear(const RobotState& me) const {
-    if (!me.scan || ctx_.body_half_width <= 0 || ctx_.body_half_width >= ctx_.robot_radius - 1e-3) return true;
-    const LaserScan& s = *me.scan;
-    const double reach = ctx_.robot_radius + 0.03;
-    for (size_t i = 0; i < s.ranges.size(); ++i) {
-      const double r = s.ranges[i];
-      if (!std::isfinite(r) || r >= s.range_max - 1e-3 || r < s.range_min) continue;
-      const double a = s.angle_min + static_cast<double>(i) * s.angle_increment;
-      const double x = ctx_.laser_mount.x + r * std::cos(a + ctx_.laser_mount.yaw);
-      const double y = ctx_.laser_mount.y + r * std::sin(a + ctx_.laser_mount.yaw);
-      if (std::hypot(x, y) < reach) return false;
-    }
-    return true;
+    if (ctx_.body_half_width <= 0 || ctx_.body_half_width >= ctx_.robot_radius - 1e-3) return true;
+    return nearest_return(me) >= ctx_.robot_radius + 0.03;
   }
 
   // The laser sees no rear; backing off is allowed only a short, slow way (the recovery's

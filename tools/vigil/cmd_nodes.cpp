@@ -426,12 +426,7 @@ void add_robot_node(CLI::App& app) {
       if (Status s = sp->poll(0, &got, &rejected); !s) throw Exit{report(s.error())};
       for (const auto& r : rejected) std::fprintf(stderr, "robot-node %s: rejected incident: %s\n", id.c_str(), r.c_str());
       for (const dds::Incident& in : got) {
-        RobotTask t;
-        t.id = in.id;
-        t.kind = in.cancelled ? "cancel_incident" : "incident";
-        t.goal = {in.position.x, in.position.y};
-        t.label = std::string(vision::to_string(in.kind));
-        if (Status s = w.post_task(id, t); !s) throw Exit{report(s.error())};
+        if (Status s = w.post_task(id, dds::incident_task(in)); !s) throw Exit{report(s.error())};
         ++incidents;
       }
     };

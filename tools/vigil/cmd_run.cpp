@@ -129,11 +129,7 @@ void add_run_command(CLI::App& app) {
           std::vector<dds::Incident> got;
           if (Status s = incident_sub->poll(0.05, &got); !s) throw Exit{report(s.error())};
           for (const dds::Incident& in : got) {
-            RobotTask t;
-            t.id = in.id;
-            t.kind = in.cancelled ? "cancel_incident" : "incident";
-            t.goal = {in.position.x, in.position.y};
-            t.label = std::string(vision::to_string(in.kind));
+            const RobotTask t = dds::incident_task(in);
             for (const std::string& id : team_ids) (void)w.post_task(id, t);
           }
           incidents_in += got.size();
