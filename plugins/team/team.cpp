@@ -88,6 +88,8 @@ class Team : public Plugin {
         {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},
         {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
+        {"reach_radius", ParamType::kNumber, 0.5, 0.05, 10.0,
+         "the target vertex counts as reached (on to the next) within this distance of the estimate (m; at most visit_radius): closer than the visit radius, so that a visit still counts with the estimate a little off"},
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
         {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
@@ -98,7 +100,12 @@ class Team : public Plugin {
         {"picture_kinds", ParamType::kStringList, std::vector<std::string>{"bag_taken"}, 0, 0,
          "respond: incident kinds at which the robot takes a high-resolution picture once it faces the event"},
         {"accept_margin", ParamType::kNumber, 0.1, 0.0, 10.0, "token passing: keep a task within this share of the best estimated cost left"},
-        {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
+        {"spacing_hold", ParamType::kBool, false, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
+        {"spacing_pace", ParamType::kBool, true, 0, 0,
+         "cyclic: slow down while nearer the mate ahead along the walk than the mate behind (the phases told in hello)"},
+        {"pace_gain", ParamType::kNumber, 2.0, 0.0, 100.0, "cyclic: the pace's reaction to uneven spacing (share of speed per spacing of difference)"},
+        {"min_pace", ParamType::kNumber, 0.3, 0.0, 1.0, "cyclic: the slowest share of cruise speed the pace asks for"},
+        {"pace_band", ParamType::kNumber, 0.1, 0.0, 1.0, "cyclic: uneven spacing the pace tolerates (behind less ahead, share of the even spacing)"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
         {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
     };
@@ -123,9 +130,14 @@ class Team : public Plugin {
     setup_ = *setup;
     strategy_name_ = p.string("strategy");
     params_.theta = p.number("theta");
+    params_.pace_gain = p.number("pace_gain");
+    params_.min_pace = p.number("min_pace");
+    params_.pace_band = p.number("pace_band");
+    spacing_pace_ = p.boolean("spacing_pace");
     auto s = planning::patrol::make_strategy(strategy_name_, setup_, params_);
     if (!s) return bad_input(ctx.scenario_file, ctx.line, "params.strategy", s.error().message);
     visit_radius_ = p.number("visit_radius");
+    reach_radius_ = std::min(visit_radius_, p.number("reach_radius"));
     discovery_ = from_seconds(p.number("discovery_time"));
     hello_every_ = from_seconds(p.number("hello_period"));
     member_timeout_ = from_seconds(p.number("member_timeout"));
@@ -213,15 +225,21 @@ class Team : public Plugin {
       h.position = nav_.pose().position();
       h.value = patrolling() ? 1 : 0;
       h.value2 = nav_.pose().yaw;
+      // Cyclic: where I am along the shared walk (mm; -1: not on it), for the mates' pace.
+      const double ph = my_phase();
+      h.seq = ph >= 0 ? std::llround(ph * 1000.0) : -1;
       cmd.send(h);
       next_hello_ = now_ + hello_every_;
     }
+    pace_ = 1.0;
     if (nav_.is_localized()) {
       pass_oncoming();
       note_visits();
       if (patrolling()) {
         update_team(cmd);
         if (formed_) patrol(cmd);
+        if (yielding_ && back_off(cmd)) own_velocity_ = true;
+        if (formed_ && spacing_pace_ && !yielding_ && !holding_) pace_ = team_pace();
       } else if (task_.id != 0) {
         own_velocity_ = respond(cmd);  // guarding: the velocity is ours this step
       }
@@ -230,7 +248,8 @@ class Team : public Plugin {
       ModelCommand* real;
       Team* self;
       void set_velocity(double v, double w) override {
-        if (!self->own_velocity_) real->set_velocity(v, w);
+        // The pace scales forward driving only (turning and backing off are left alone).
+        if (!self->own_velocity_) real->set_velocity(v > 0 ? v * self->pace_ : v, w);
       }
       std::vector<RobotTask> take_tasks() override {
         std::vector<RobotTask> t;
@@ -294,6 +313,7 @@ class Team : public Plugin {
       mate.patrolling = m.value > 0.5;
       mate.yaw = m.value2;
       mate.pose_time = m.sent;
+      mate.phase = m.seq >= 0 ? static_cast<double>(m.seq) / 1000.0 : -1;
     } else if (m.kind == "visit") {
       knowledge_.visited(m.vertex, m.value);
       Mate& mate = mates_[m.from];
@@ -618,6 +638,29 @@ class Team : public Plugin {
     return r;
   }
 
+  // Cyclic: how far along the shared walk I am (m), -1 off it (not patrolling, no target yet,
+  // another strategy).
+  double my_phase() const {
+    if (!patrolling() || !formed_ || target_ < 0) return -1;
+    const double rest = (setup_->graph.vertex(target_).position - nav_.pose().position()).norm();
+    return strategy_->phase(rest);
+  }
+
+  // The share of cruise speed that evens the spacing out, from the phases the team members
+  // told in their latest hellos (1.5 s old at most).
+  double team_pace() const {
+    const double mine = my_phase();
+    if (mine < 0) return 1.0;
+    std::vector<double> phases;
+    for (const std::string& id : team_) {
+      if (id == ctx_.model_id) continue;
+      auto it = mates_.find(id);
+      if (it == mates_.end() || it->second.phase < 0 || now_ - it->second.pose_time > from_seconds(1.5)) continue;
+      phases.push_back(it->second.phase);
+    }
+    return strategy_->pace(mine, phases);
+  }
+
   // A mate within 3 m: a robot standing in a corridor would be in its way.
   bool mate_close() const { return mate_within(3.0); }
   bool mate_within(double d) const {
@@ -662,6 +705,18 @@ class Team : public Plugin {
     }
   }
 
+  // Giving way with the way to the side spot blocked (the mate too close to turn away from):
+  // back straight off, slowly, while the map behind is free and the mate is within 1.2 m.
+  // True when this step's velocity is set here.
+  bool back_off(ModelCommand& cmd) {
+    if (nav_.mode() != "waiting" || !mate_within(1.2)) return false;
+    const Pose2 me = nav_.pose();
+    const Vec2 back{-std::cos(me.yaw), -std::sin(me.yaw)};
+    if (!nav_.planner().inflated().is_free(me.position() + back * 0.3)) return false;
+    cmd.set_velocity(-0.2, 0.0);
+    return true;
+  }
+
   // Vertices passed (entered within the visit radius of the estimate), told to the team.
   void note_visits() {
     const Vec2 p = nav_.pose().position();
@@ -704,7 +759,11 @@ class Team : public Plugin {
     for (int v : visited_now_) {
       if (v != target_) tell_visit(cmd, v);
     }
-    const bool reached = target_ >= 0 && (setup_->graph.vertex(target_).position - p).norm() <= visit_radius_;
+    // Reached: within the reach radius, or the navigator stopped there (a vertex it could not
+    // get closer to) within the visit radius.
+    const double to_target = target_ >= 0 ? (setup_->graph.vertex(target_).position - p).norm() : 1e9;
+    const bool reached = target_ >= 0 && (to_target <= reach_radius_ ||
+                                          (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
     visited_now_.clear();
     if (target_ < 0) {
       last_at_ = -1;
@@ -794,6 +853,7 @@ class Team : public Plugin {
     bool patrolling = true;
     double yaw = 0;
     SimTime pose_time = -1;  // when `where` and `yaw` were measured (hello only)
+    double phase = -1;       // cyclic: along the shared walk (m; -1: not on it)
   };
 
   Navigator nav_;
@@ -802,7 +862,7 @@ class Team : public Plugin {
   std::string strategy_name_;
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
-  double visit_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
+  double visit_radius_ = 0.5, reach_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
   SimTime now_ = 0, next_hello_ = 0;
@@ -810,7 +870,8 @@ class Team : public Plugin {
   std::map<std::string, Mate> mates_;
   std::vector<std::string> team_;
   bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false, oncoming_ = false;
-  bool spacing_hold_ = true, yielding_ = false;
+  bool spacing_hold_ = true, yielding_ = false, spacing_pace_ = true;
+  double pace_ = 1.0;
   Vec2 yield_spot_;
   SimTime yield_until_ = 0;
   SimTime hold_until_ = 0, failed_at_ = -1;

@@ -110,7 +110,7 @@ void add_bench_patrol_command(CLI::App* bench) {
     std::ofstream trace;
     if (!o->trace.empty()) {
       trace.open(o->trace);
-      trace << "map,strategy,robots,kind,t,robot,vertex,x,y\n";
+      trace << "map,strategy,robots,kind,t,robot,vertex,x,y,event,mode,detail\n";
     }
     for (const MapCase& mc : bench_maps(names)) {
       auto graph = PatrolGraph::read(mc.graph);
