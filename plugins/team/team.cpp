@@ -89,7 +89,7 @@ class Team : public Plugin {
         {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
         {"reach_radius", ParamType::kNumber, 0.5, 0.05, 10.0,
-         "the target vertex counts as reached (on to the next) within this distance of the estimate (m; at most visit_radius): closer than the visit radius, so that a visit still counts with the estimate a little off"},
+         "a dead end's vertex (a leaf of the graph, where the robot turns round anyway) counts as reached within this distance of the estimate (m; at most visit_radius; other vertices: visit_radius): closer than the visit radius, so that the visit still counts with the estimate a little off"},
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
         {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
@@ -105,6 +105,9 @@ class Team : public Plugin {
          "cyclic: slow down while nearer the mate ahead along the walk than the mate behind (the phases told in hello)"},
         {"pace_gain", ParamType::kNumber, 2.0, 0.0, 100.0, "cyclic: the pace's reaction to uneven spacing (share of speed per spacing of difference)"},
         {"min_pace", ParamType::kNumber, 0.3, 0.0, 1.0, "cyclic: the slowest share of cruise speed the pace asks for"},
+        {"leaf_wait_distance", ParamType::kNumber, 0.0, 0.0, 20.0,
+         "going into or out of a dead end (a leaf vertex), wait while a mate is this close in front (m; 0 = off)"},
+        {"leaf_wait_time", ParamType::kNumber, 4.0, 0.0, 60.0, "the longest such wait for one mate (s)"},
         {"pace_band", ParamType::kNumber, 0.1, 0.0, 1.0, "cyclic: uneven spacing the pace tolerates (behind less ahead, share of the even spacing)"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
         {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
@@ -134,6 +137,8 @@ class Team : public Plugin {
     params_.min_pace = p.number("min_pace");
     params_.pace_band = p.number("pace_band");
     spacing_pace_ = p.boolean("spacing_pace");
+    leaf_wait_distance_ = p.number("leaf_wait_distance");
+    leaf_wait_time_ = from_seconds(p.number("leaf_wait_time"));
     auto s = planning::patrol::make_strategy(strategy_name_, setup_, params_);
     if (!s) return bad_input(ctx.scenario_file, ctx.line, "params.strategy", s.error().message);
     visit_radius_ = p.number("visit_radius");
@@ -172,6 +177,8 @@ class Team : public Plugin {
     formed_ = false;
     holding_ = false;
     yielding_ = false;
+    on_leaf_edge_ = leaf_waiting_ = false;
+    pace_ = 1.0;
     failed_at_ = -1;
     target_ = -1;
     last_at_ = -1;
@@ -228,6 +235,7 @@ class Team : public Plugin {
       // Cyclic: where I am along the shared walk (mm; -1: not on it), for the mates' pace.
       const double ph = my_phase();
       h.seq = ph >= 0 ? std::llround(ph * 1000.0) : -1;
+      h.vertex = on_leaf_edge_ ? 1 : 0;  // going into or out of a dead end
       cmd.send(h);
       next_hello_ = now_ + hello_every_;
     }
@@ -240,6 +248,7 @@ class Team : public Plugin {
         if (formed_) patrol(cmd);
         if (yielding_ && back_off(cmd)) own_velocity_ = true;
         if (formed_ && spacing_pace_ && !yielding_ && !holding_) pace_ = team_pace();
+        if (formed_ && !yielding_ && !holding_ && leaf_wait()) pace_ = 0.0;
       } else if (task_.id != 0) {
         own_velocity_ = respond(cmd);  // guarding: the velocity is ours this step
       }
@@ -314,6 +323,7 @@ class Team : public Plugin {
       mate.yaw = m.value2;
       mate.pose_time = m.sent;
       mate.phase = m.seq >= 0 ? static_cast<double>(m.seq) / 1000.0 : -1;
+      mate.on_leaf_edge = m.vertex == 1;
     } else if (m.kind == "visit") {
       knowledge_.visited(m.vertex, m.value);
       Mate& mate = mates_[m.from];
@@ -661,6 +671,45 @@ class Team : public Plugin {
     return strategy_->pace(mine, phases);
   }
 
+  // Going into or out of a dead end (a leaf vertex of the graph: a door, a room) with a mate
+  // within `leaf_wait_distance` in front: wait (turning is still allowed) and let it go by along
+  // the corridor first, rather than cross its lane and meet it face to face in the opening. At
+  // most `leaf_wait_time` per mate in the way; a mate also on a dead-end edge goes first when its
+  // name sorts first (so two never wait for each other).
+  bool leaf_wait() {
+    if (leaf_wait_distance_ <= 0 || target_ < 0) {
+      leaf_waiting_ = false;
+      return false;
+    }
+    auto leaf = [&](int v) { return v >= 0 && setup_->graph.vertex(static_cast<size_t>(v)).edges.size() == 1; };
+    const bool minor = leaf(target_) || leaf(last_at_);
+    const Pose2 me = nav_.pose();
+    const Vec2 h{std::cos(me.yaw), std::sin(me.yaw)};
+    std::string in_way;
+    if (minor) {
+      for (const auto& [id, m] : mates_) {
+        if (m.pose_time < 0 || now_ - m.pose_time > from_seconds(1.5) || !m.patrolling) continue;
+        const Vec2 r = m.where - me.position();
+        const double d = r.norm();
+        if (d > leaf_wait_distance_ || d < 1e-6 || h.dot(r) < 0.2 * d) continue;
+        if (m.on_leaf_edge && id > ctx_.model_id) continue;  // on a dead-end edge too, and I sort first
+        in_way = id;
+        break;
+      }
+    }
+    on_leaf_edge_ = minor;
+    if (in_way.empty()) {
+      leaf_waiting_ = false;
+      return false;
+    }
+    if (!leaf_waiting_ || in_way != leaf_wait_for_) {
+      leaf_waiting_ = true;
+      leaf_wait_for_ = in_way;
+      leaf_wait_until_ = now_ + leaf_wait_time_;
+    }
+    return now_ < leaf_wait_until_;
+  }
+
   // A mate within 3 m: a robot standing in a corridor would be in its way.
   bool mate_close() const { return mate_within(3.0); }
   bool mate_within(double d) const {
@@ -762,7 +811,17 @@ class Team : public Plugin {
     // Reached: within the reach radius, or the navigator stopped there (a vertex it could not
     // get closer to) within the visit radius.
     const double to_target = target_ >= 0 ? (setup_->graph.vertex(target_).position - p).norm() : 1e9;
-    const bool reached = target_ >= 0 && (to_target <= reach_radius_ ||
+    const bool leaf = target_ >= 0 && setup_->graph.vertex(static_cast<size_t>(target_)).edges.size() == 1;
+    // A mate standing on it (within the visit radius: it visits it now) while I am close:
+    // reached too, rather than wait for it to move off the vertex.
+    bool taken = false;
+    if (target_ >= 0 && to_target <= 2.0) {
+      const Vec2 tv = setup_->graph.vertex(static_cast<size_t>(target_)).position;
+      for (const auto& [id, m] : mates_) {
+        if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(0.5) && (m.where - tv).norm() <= visit_radius_) taken = true;
+      }
+    }
+    const bool reached = target_ >= 0 && (to_target <= (leaf ? reach_radius_ : visit_radius_) || taken ||
                                           (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
     visited_now_.clear();
     if (target_ < 0) {
@@ -774,7 +833,10 @@ class Team : public Plugin {
     // backing off to the side, and resumes once the other has gone by.
     if (yielding_) {
       const bool there = (yield_spot_ - p).norm() < 0.35 || !nav_.has_goal();
-      if (now_ < yield_until_ && !(there && !mate_within(2.0))) return;
+      // Resumed once no mate is within 2 m: at the spot, or a second on (the mate may have gone
+      // by before the spot is reached: waiting on for the spot would only lose time).
+      const bool clear = !mate_within(2.0) && (there || now_ - yield_from_ >= from_seconds(1.0));
+      if (now_ < yield_until_ && !clear) return;
       yielding_ = false;
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       return;
@@ -787,6 +849,7 @@ class Team : public Plugin {
         if (nav_.planner().inflated().is_free(spot) && nav_.planner().inflated().segment_free(p, spot)) {
           yielding_ = true;
           yield_spot_ = spot;
+          yield_from_ = now_;
           yield_until_ = now_ + from_seconds(8.0);
           nav_.go_to(spot, 0, "giving way", false);
           return;
@@ -854,6 +917,7 @@ class Team : public Plugin {
     double yaw = 0;
     SimTime pose_time = -1;  // when `where` and `yaw` were measured (hello only)
     double phase = -1;       // cyclic: along the shared walk (m; -1: not on it)
+    bool on_leaf_edge = false;
   };
 
   Navigator nav_;
@@ -872,8 +936,12 @@ class Team : public Plugin {
   bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false, oncoming_ = false;
   bool spacing_hold_ = true, yielding_ = false, spacing_pace_ = true;
   double pace_ = 1.0;
+  bool on_leaf_edge_ = false, leaf_waiting_ = false;
+  std::string leaf_wait_for_;
+  SimTime leaf_wait_until_ = 0, leaf_wait_time_ = 0;
+  double leaf_wait_distance_ = 0.0;
   Vec2 yield_spot_;
-  SimTime yield_until_ = 0;
+  SimTime yield_until_ = 0, yield_from_ = 0;
   SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;
