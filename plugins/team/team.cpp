@@ -322,7 +322,11 @@ class Team : public Plugin {
       mate.patrolling = m.value > 0.5;
       mate.yaw = m.value2;
       mate.pose_time = m.sent;
-      mate.phase = m.seq >= 0 ? static_cast<double>(m.seq) / 1000.0 : -1;
+      const double ph = m.seq >= 0 ? static_cast<double>(m.seq) / 1000.0 : -1;
+      if (ph < 0 || mate.phase < 0 || std::abs(ph - mate.phase) > 0.3) {
+        mate.phase = ph;
+        mate.phase_moved = now_;
+      }
       mate.on_leaf_edge = m.vertex == 1;
     } else if (m.kind == "visit") {
       knowledge_.visited(m.vertex, m.value);
@@ -666,6 +670,9 @@ class Team : public Plugin {
       if (id == ctx_.model_id) continue;
       auto it = mates_.find(id);
       if (it == mates_.end() || it->second.phase < 0 || now_ - it->second.pose_time > from_seconds(1.5)) continue;
+      // A mate stuck for a while (in a jam, recovering) is left out: waiting for it would
+      // only pile the team up behind it.
+      if (now_ - it->second.phase_moved > from_seconds(10.0)) continue;
       phases.push_back(it->second.phase);
     }
     return strategy_->pace(mine, phases);
@@ -917,6 +924,7 @@ class Team : public Plugin {
     double yaw = 0;
     SimTime pose_time = -1;  // when `where` and `yaw` were measured (hello only)
     double phase = -1;       // cyclic: along the shared walk (m; -1: not on it)
+    SimTime phase_moved = 0; // when its phase last moved on by more than 0.3 m
     bool on_leaf_edge = false;
   };
 
