@@ -157,6 +157,73 @@ TEST(Strategy, CyclicSpreadsTheTeamEvenlyAndFollowsTheWalk) {
   EXPECT_NEAR(setup->distances.cost(starts[0], starts[1]), setup->tour.length / 2, 1e-6);
 }
 
+// A comb: a spine of 6 vertices 4 m apart with a 1 m stub at each (a tree like DIAG_labs').
+std::shared_ptr<const PatrolSetup> comb_setup() {
+  std::vector<Vec2> p;
+  std::vector<std::pair<int, int>> e;
+  for (int i = 0; i < 6; ++i) p.push_back({i * 4.0, 0});
+  for (int i = 0; i < 6; ++i) p.push_back({i * 4.0, 1.0});
+  for (int i = 0; i + 1 < 6; ++i) e.push_back({i, i + 1});
+  for (int i = 0; i < 6; ++i) e.push_back({i, i + 6});
+  return PatrolSetup::make(*PatrolGraph::from_edges(p, e), {}, 1.0);
+}
+
+TEST(Strategy, CyclicFormationGivesEveryMemberItsOwnEvenSlot) {
+  auto setup = comb_setup();
+  const double L = setup->tour.length;
+  ASSERT_NEAR(L, 2 * (20.0 + 6.0), 1e-9);
+  for (int n : {2, 3, 4, 6}) {
+    std::vector<std::string> names;
+    std::vector<Vec2> where;
+    for (int k = 0; k < n; ++k) {
+      names.push_back("r" + std::to_string(k));
+      where.push_back(setup->graph.vertex(static_cast<size_t>((k * 5) % 12)).position + Vec2{0.1, 0.05});
+    }
+    std::vector<double> slots;
+    for (int me = 0; me < n; ++me) {
+      auto s = make_strategy("cyclic", setup);
+      ASSERT_TRUE(s);
+      (*s)->set_team(names, where, me);
+      slots.push_back((*s)->phase(0));  // the arc of the walk vertex it heads for first
+    }
+    std::sort(slots.begin(), slots.end());
+    for (int k = 0; k < n; ++k) {
+      const double gap = std::fmod(slots[(k + 1) % n] - slots[k] + L, L);
+      // Each heads for the first walk vertex at or after its slot: within an edge (4 m) of even.
+      EXPECT_NEAR(gap, L / n, 4.0 + 1e-6) << n << " robots";
+    }
+  }
+}
+
+TEST(Strategy, CyclicPaceSlowsTheRobotNearerTheOneAhead) {
+  EXPECT_DOUBLE_EQ(spacing_pace(10, 10, 10, 2.0, 0.3), 1.0);   // even
+  EXPECT_DOUBLE_EQ(spacing_pace(12, 8, 10, 2.0, 0.3), 1.0);    // nearer the one behind: full speed
+  EXPECT_NEAR(spacing_pace(8, 12, 10, 2.0, 0.3), 0.6, 1e-9);   // 1 - 2 x 4 / 20
+  EXPECT_NEAR(spacing_pace(8, 12, 10, 2.0, 0.3, 0.1), 0.7, 1e-9);  // a tenth of the spacing tolerated
+  EXPECT_DOUBLE_EQ(spacing_pace(9.6, 10.4, 10, 2.0, 0.3, 0.1), 1.0);
+  EXPECT_DOUBLE_EQ(spacing_pace(1, 19, 10, 2.0, 0.3), 0.3);    // never slower than min_pace
+  auto setup = comb_setup();
+  const double L = setup->tour.length;
+  StrategyParams sp;
+  sp.pace_band = 0;
+  auto s = make_strategy("cyclic", setup, sp);
+  ASSERT_TRUE(s);
+  (*s)->set_team({"a"}, {setup->graph.vertex(0).position}, 0);
+  const double at = (*s)->phase(0);
+  EXPECT_NEAR((*s)->phase(1.5), std::fmod(at - 1.5 + L, L), 1e-9);
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {}), 1.0);                                    // alone
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {std::fmod(at + L / 2, L)}), 1.0);            // even
+  EXPECT_LT((*s)->pace(at, {std::fmod(at + L / 4, L)}), 1.0);                   // a quarter ahead
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {std::fmod(at + 3 * L / 4, L)}), 1.0);        // a quarter behind
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {-1.0}), 1.0);                                // a mate off the walk
+  // Other strategies have no shared walk.
+  auto g = make_strategy("greedy", setup);
+  EXPECT_LT((*g)->phase(0), 0);
+  EXPECT_DOUBLE_EQ((*g)->pace(0, {1.0}), 1.0);
+  sp.min_pace = 2;
+  EXPECT_FALSE(make_strategy("cyclic", setup, sp));
+}
+
 TEST(Strategy, PartitionGivesEachRobotItsOwnRegion) {
   auto setup = line_setup(10, 2.0);
   std::vector<std::set<int>> regions(2);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <set>
 
+#include "common/linear_assignment.h"
+
 namespace vigil::planning::patrol {
 
 std::shared_ptr<const PatrolSetup> PatrolSetup::make(PatrolGraph g, CostMatrix travel, double speed) {
@@ -71,6 +73,64 @@ Spread spread(const ClosedWalk& w, const PatrolGraph& g, const std::vector<std::
   return s;
 }
 
+// Cyclic: the even formation along the walk that moves the team least. A member may stand where
+// the walk passes more than once (a tree's walk passes every inner vertex on the way out and
+// back): each place it could count as is an arc of the walk vertex nearest to it. For every
+// candidate base (one of those arcs less a multiple of the spacing), members go to the slots
+// base + k L / N by least total shift (min-cost assignment); the base whose largest shift is
+// least wins (then the least total). Returns my slot's arc. Every member computes the same
+// from the same list.
+double formation(const ClosedWalk& w, const PatrolGraph& g, const std::vector<std::string>& members,
+                 const std::vector<Vec2>& where, int me) {
+  const int n = static_cast<int>(members.size());
+  if (w.length <= 0 || n == 0) return 0;
+  const double L = w.length, gap = L / static_cast<double>(n);
+  std::vector<std::vector<double>> places(static_cast<size_t>(n));
+  for (int m = 0; m < n; ++m) {
+    const int v = g.nearest(where[static_cast<size_t>(m)]);
+    for (size_t i = 0; i < w.vertices.size(); ++i) {
+      if (w.vertices[i] == v) places[static_cast<size_t>(m)].push_back(w.arc[i]);
+    }
+    if (places[static_cast<size_t>(m)].empty()) places[static_cast<size_t>(m)].push_back(0);
+  }
+  auto dist = [&](double a, double b) {
+    const double d = circ(a - b, L);
+    return std::min(d, L - d);
+  };
+  double best_max = std::numeric_limits<double>::infinity(), best_sum = best_max, best_slot = 0;
+  std::set<long long> tried;
+  for (int m = 0; m < n; ++m) {
+    for (double a : places[static_cast<size_t>(m)]) {
+      for (int k = 0; k < n; ++k) {
+        const double base = circ(a - k * gap, L);
+        if (!tried.insert(std::llround(base * 1000.0)).second) continue;
+        vigil::CostMatrix c(n, n);
+        for (int r = 0; r < n; ++r) {
+          for (int s = 0; s < n; ++s) {
+            double d = std::numeric_limits<double>::infinity();
+            for (double p : places[static_cast<size_t>(r)]) d = std::min(d, dist(p, base + s * gap));
+            c.at(r, s) = d;
+          }
+        }
+        const auto pairs = vigil::solve_linear_assignment(c);
+        double mx = 0, sum = 0;
+        int mine = 0;
+        for (const auto& [r, s] : pairs) {
+          mx = std::max(mx, c.at(r, s));
+          sum += c.at(r, s);
+          if (r == me) mine = s;
+        }
+        if (mx < best_max - 1e-6 || (mx < best_max + 1e-6 && sum < best_sum - 1e-6)) {
+          best_max = mx;
+          best_sum = sum;
+          best_slot = circ(base + mine * gap, L);
+        }
+      }
+    }
+  }
+  return best_slot;
+}
+
 // The first walk index at or after an arc length (cyclic).
 size_t index_at(const ClosedWalk& w, double a) {
   a = circ(a, w.length);
@@ -82,11 +142,10 @@ size_t index_at(const ClosedWalk& w, double a) {
 
 class Cyclic : public PatrolStrategy {
  public:
-  explicit Cyclic(std::shared_ptr<const PatrolSetup> s) : s_(std::move(s)) {}
+  Cyclic(std::shared_ptr<const PatrolSetup> s, const StrategyParams& p) : s_(std::move(s)), p_(p) {}
   const char* name() const override { return "cyclic"; }
   void set_team(const std::vector<std::string>& members, const std::vector<Vec2>& where, int me) override {
-    const Spread sp = spread(s_->tour, s_->graph, members, where, me);
-    cursor_ = index_at(s_->tour, sp.base + sp.rank * s_->tour.length / sp.count);
+    cursor_ = index_at(s_->tour, formation(s_->tour, s_->graph, members, where, me));
   }
   int next(int at, Vec2, const PatrolKnowledge&) override {
     const auto& v = s_->tour.vertices;
@@ -94,6 +153,29 @@ class Cyclic : public PatrolStrategy {
     return v[cursor_];
   }
   int64_t walk_index() const override { return static_cast<int64_t>(cursor_); }
+  // The arc of the walk vertex I head for (the walk's end for index 0, so that the last edge
+  // counts from the arc before it) less what is left to drive.
+  double phase(double remaining) const override {
+    const ClosedWalk& w = s_->tour;
+    if (w.length <= 0) return 0;
+    const double to = cursor_ == 0 ? w.length : w.arc[cursor_];
+    return circ(to - std::max(0.0, remaining), w.length);
+  }
+  double pace(double mine, const std::vector<double>& mates) const override {
+    const double L = s_->tour.length;
+    if (L <= 0 || mine < 0) return 1;
+    double ahead = L, behind = L;
+    int n = 0;
+    for (double m : mates) {
+      if (m < 0) continue;
+      ++n;
+      const double d = circ(m - mine, L);
+      ahead = std::min(ahead, d);
+      behind = std::min(behind, circ(L - d, L));
+    }
+    if (n == 0) return 1;
+    return spacing_pace(ahead, behind, L / (n + 1), p_.pace_gain, p_.min_pace, p_.pace_band);
+  }
   // At a vertex (the cursor has moved on to the next): my arc is that of the vertex before
   // the cursor; a mate's is its target's arc less what it still has to drive. Hold while the
   // gap to the robot ahead is shorter than the gap to the one behind by more than a tenth of
@@ -120,6 +202,7 @@ class Cyclic : public PatrolStrategy {
 
  private:
   std::shared_ptr<const PatrolSetup> s_;
+  StrategyParams p_;
   size_t cursor_ = 0;
 };
 
@@ -205,6 +288,13 @@ class Greedy : public PatrolStrategy {
 
 }  // namespace
 
+double spacing_pace(double ahead, double behind, double spacing, double gain, double min_pace, double band) {
+  const double excess = behind - ahead - std::max(0.0, band) * spacing;
+  if (!(spacing > 0) || !(excess > 0)) return 1;
+  const double lo = std::clamp(min_pace, 0.0, 1.0);
+  return std::clamp(1.0 - gain * excess / (2.0 * spacing), lo, 1.0);
+}
+
 const std::vector<std::string>& strategy_names() {
   static const std::vector<std::string> names{"cyclic", "partition", "greedy"};
   return names;
@@ -213,7 +303,11 @@ const std::vector<std::string>& strategy_names() {
 Result<std::unique_ptr<PatrolStrategy>> make_strategy(const std::string& name, std::shared_ptr<const PatrolSetup> setup,
                                                        const StrategyParams& params) {
   if (!setup || setup->graph.size() == 0) return bad_input("", 0, "graph", "the patrol graph is empty");
-  if (name == "cyclic") return std::unique_ptr<PatrolStrategy>(std::make_unique<Cyclic>(setup));
+  if (name == "cyclic") {
+    if (!(params.pace_gain >= 0) || !std::isfinite(params.pace_gain)) return bad_input("", 0, "pace_gain", "must be a finite number >= 0");
+    if (!(params.min_pace >= 0 && params.min_pace <= 1)) return bad_input("", 0, "min_pace", "must be in [0, 1]");
+    return std::unique_ptr<PatrolStrategy>(std::make_unique<Cyclic>(setup, params));
+  }
   if (name == "partition") return std::unique_ptr<PatrolStrategy>(std::make_unique<Partition>(setup));
   if (name == "greedy") {
     if (!(params.theta >= 0) || !std::isfinite(params.theta)) return bad_input("", 0, "theta", "must be a finite number >= 0");

@@ -67,10 +67,27 @@ class PatrolStrategy {
   virtual double hold(const PatrolKnowledge&) const { return 0; }
   // Where this robot is on the shared walk (cyclic: the walk index it heads for; -1: none).
   virtual int64_t walk_index() const { return -1; }
+  // Cyclic: how far along the shared walk this robot is (m, in [0, length)), `remaining` metres
+  // short of the walk vertex it heads for; -1 for the other strategies (no shared walk).
+  virtual double phase(double /*remaining*/) const { return -1; }
+  // Cyclic: the share of cruise speed (in [min_pace, 1]) that keeps the team evenly spaced
+  // along the walk, from my phase and the mates' (phases < 0 are left out). A robot nearer the
+  // mate ahead than the mate behind slows by the difference: a robot held up somewhere makes
+  // the one behind it slow down and the one ahead of it wait, instead of the gap behind it
+  // growing until a hold at a vertex catches it. 1 when spacing is even or alone.
+  virtual double pace(double /*mine*/, const std::vector<double>& /*mates*/) const { return 1; }
 };
 
+// The pace law (cyclic): `ahead` and `behind` the arc gaps to the nearest mates either side,
+// `spacing` the even gap, `band` the difference tolerated (share of the spacing):
+// 1 - gain (behind - ahead - band spacing) / (2 spacing), within [min_pace, 1].
+double spacing_pace(double ahead, double behind, double spacing, double gain, double min_pace, double band = 0);
+
 struct StrategyParams {
-  double theta = 1.0;  // greedy: seconds of idleness one second of travel is worth
+  double theta = 1.0;      // greedy: seconds of idleness one second of travel is worth
+  double pace_gain = 2.0;  // cyclic: how hard the pace reacts to uneven spacing (0: never slows)
+  double min_pace = 0.3;   // cyclic: the slowest share of cruise speed the pace asks for
+  double pace_band = 0.1;  // cyclic: uneven spacing (behind - ahead) tolerated, as a share of the even spacing
 };
 
 const std::vector<std::string>& strategy_names();

@@ -88,6 +88,8 @@ class Team : public Plugin {
         {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},
         {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
+        {"reach_radius", ParamType::kNumber, 0.5, 0.05, 10.0,
+         "a dead end's vertex (a leaf of the graph, where the robot turns round anyway) counts as reached within this distance of the estimate (m; at most visit_radius; other vertices: visit_radius): closer than the visit radius, so that the visit still counts with the estimate a little off"},
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
         {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
         {"member_timeout", ParamType::kNumber, 5.0, 0.2, 3600.0, "a mate not heard from for this long leaves the team (s)"},
@@ -98,7 +100,15 @@ class Team : public Plugin {
         {"picture_kinds", ParamType::kStringList, std::vector<std::string>{"bag_taken"}, 0, 0,
          "respond: incident kinds at which the robot takes a high-resolution picture once it faces the event"},
         {"accept_margin", ParamType::kNumber, 0.1, 0.0, 10.0, "token passing: keep a task within this share of the best estimated cost left"},
-        {"spacing_hold", ParamType::kBool, true, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
+        {"spacing_hold", ParamType::kBool, false, 0, 0, "cyclic: wait at a vertex when the robot ahead is closer than the one behind"},
+        {"spacing_pace", ParamType::kBool, true, 0, 0,
+         "cyclic: slow down while nearer the mate ahead along the walk than the mate behind (the phases told in hello)"},
+        {"pace_gain", ParamType::kNumber, 2.0, 0.0, 100.0, "cyclic: the pace's reaction to uneven spacing (share of speed per spacing of difference)"},
+        {"min_pace", ParamType::kNumber, 0.3, 0.0, 1.0, "cyclic: the slowest share of cruise speed the pace asks for"},
+        {"leaf_wait_distance", ParamType::kNumber, 0.0, 0.0, 20.0,
+         "going into or out of a dead end (a leaf vertex), wait while a mate is this close in front (m; 0 = off)"},
+        {"leaf_wait_time", ParamType::kNumber, 4.0, 0.0, 60.0, "the longest such wait for one mate (s)"},
+        {"pace_band", ParamType::kNumber, 0.1, 0.0, 1.0, "cyclic: uneven spacing the pace tolerates (behind less ahead, share of the even spacing)"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
         {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
     };
@@ -123,9 +133,16 @@ class Team : public Plugin {
     setup_ = *setup;
     strategy_name_ = p.string("strategy");
     params_.theta = p.number("theta");
+    params_.pace_gain = p.number("pace_gain");
+    params_.min_pace = p.number("min_pace");
+    params_.pace_band = p.number("pace_band");
+    spacing_pace_ = p.boolean("spacing_pace");
+    leaf_wait_distance_ = p.number("leaf_wait_distance");
+    leaf_wait_time_ = from_seconds(p.number("leaf_wait_time"));
     auto s = planning::patrol::make_strategy(strategy_name_, setup_, params_);
     if (!s) return bad_input(ctx.scenario_file, ctx.line, "params.strategy", s.error().message);
     visit_radius_ = p.number("visit_radius");
+    reach_radius_ = std::min(visit_radius_, p.number("reach_radius"));
     discovery_ = from_seconds(p.number("discovery_time"));
     hello_every_ = from_seconds(p.number("hello_period"));
     member_timeout_ = from_seconds(p.number("member_timeout"));
@@ -160,6 +177,8 @@ class Team : public Plugin {
     formed_ = false;
     holding_ = false;
     yielding_ = false;
+    on_leaf_edge_ = leaf_waiting_ = false;
+    pace_ = 1.0;
     failed_at_ = -1;
     target_ = -1;
     last_at_ = -1;
@@ -213,15 +232,23 @@ class Team : public Plugin {
       h.position = nav_.pose().position();
       h.value = patrolling() ? 1 : 0;
       h.value2 = nav_.pose().yaw;
+      // Cyclic: where I am along the shared walk (mm; -1: not on it), for the mates' pace.
+      const double ph = my_phase();
+      h.seq = ph >= 0 ? std::llround(ph * 1000.0) : -1;
+      h.vertex = on_leaf_edge_ ? 1 : 0;  // going into or out of a dead end
       cmd.send(h);
       next_hello_ = now_ + hello_every_;
     }
+    pace_ = 1.0;
     if (nav_.is_localized()) {
       pass_oncoming();
       note_visits();
       if (patrolling()) {
         update_team(cmd);
         if (formed_) patrol(cmd);
+        if (yielding_ && back_off(cmd)) own_velocity_ = true;
+        if (formed_ && spacing_pace_ && !yielding_ && !holding_) pace_ = team_pace();
+        if (formed_ && !yielding_ && !holding_ && leaf_wait()) pace_ = 0.0;
       } else if (task_.id != 0) {
         own_velocity_ = respond(cmd);  // guarding: the velocity is ours this step
       }
@@ -230,7 +257,8 @@ class Team : public Plugin {
       ModelCommand* real;
       Team* self;
       void set_velocity(double v, double w) override {
-        if (!self->own_velocity_) real->set_velocity(v, w);
+        // The pace scales forward driving only (turning and backing off are left alone).
+        if (!self->own_velocity_) real->set_velocity(v > 0 ? v * self->pace_ : v, w);
       }
       std::vector<RobotTask> take_tasks() override {
         std::vector<RobotTask> t;
@@ -294,6 +322,12 @@ class Team : public Plugin {
       mate.patrolling = m.value > 0.5;
       mate.yaw = m.value2;
       mate.pose_time = m.sent;
+      const double ph = m.seq >= 0 ? static_cast<double>(m.seq) / 1000.0 : -1;
+      if (ph < 0 || mate.phase < 0 || std::abs(ph - mate.phase) > 0.3) {
+        mate.phase = ph;
+        mate.phase_moved = now_;
+      }
+      mate.on_leaf_edge = m.vertex == 1;
     } else if (m.kind == "visit") {
       knowledge_.visited(m.vertex, m.value);
       Mate& mate = mates_[m.from];
@@ -619,6 +653,71 @@ class Team : public Plugin {
     return r;
   }
 
+  // Cyclic: how far along the shared walk I am (m), -1 off it (not patrolling, no target yet,
+  // another strategy).
+  double my_phase() const {
+    if (!patrolling() || !formed_ || target_ < 0) return -1;
+    const double rest = (setup_->graph.vertex(target_).position - nav_.pose().position()).norm();
+    return strategy_->phase(rest);
+  }
+
+  // The share of cruise speed that evens the spacing out, from the phases the team members
+  // told in their latest hellos (1.5 s old at most).
+  double team_pace() const {
+    const double mine = my_phase();
+    if (mine < 0) return 1.0;
+    std::vector<double> phases;
+    for (const std::string& id : team_) {
+      if (id == ctx_.model_id) continue;
+      auto it = mates_.find(id);
+      if (it == mates_.end() || it->second.phase < 0 || now_ - it->second.pose_time > from_seconds(1.5)) continue;
+      // A mate stuck for a while (in a jam, recovering) is left out: waiting for it would
+      // only pile the team up behind it.
+      if (now_ - it->second.phase_moved > from_seconds(10.0)) continue;
+      phases.push_back(it->second.phase);
+    }
+    return strategy_->pace(mine, phases);
+  }
+
+  // Going into or out of a dead end (a leaf vertex of the graph: a door, a room) with a mate
+  // within `leaf_wait_distance` in front: wait (turning is still allowed) and let it go by along
+  // the corridor first, rather than cross its lane and meet it face to face in the opening. At
+  // most `leaf_wait_time` per mate in the way; a mate also on a dead-end edge goes first when its
+  // name sorts first (so two never wait for each other).
+  bool leaf_wait() {
+    if (leaf_wait_distance_ <= 0 || target_ < 0) {
+      leaf_waiting_ = false;
+      return false;
+    }
+    auto leaf = [&](int v) { return v >= 0 && setup_->graph.vertex(static_cast<size_t>(v)).edges.size() == 1; };
+    const bool minor = leaf(target_) || leaf(last_at_);
+    const Pose2 me = nav_.pose();
+    const Vec2 h{std::cos(me.yaw), std::sin(me.yaw)};
+    std::string in_way;
+    if (minor) {
+      for (const auto& [id, m] : mates_) {
+        if (m.pose_time < 0 || now_ - m.pose_time > from_seconds(1.5) || !m.patrolling) continue;
+        const Vec2 r = m.where - me.position();
+        const double d = r.norm();
+        if (d > leaf_wait_distance_ || d < 1e-6 || h.dot(r) < 0.2 * d) continue;
+        if (m.on_leaf_edge && id > ctx_.model_id) continue;  // on a dead-end edge too, and I sort first
+        in_way = id;
+        break;
+      }
+    }
+    on_leaf_edge_ = minor;
+    if (in_way.empty()) {
+      leaf_waiting_ = false;
+      return false;
+    }
+    if (!leaf_waiting_ || in_way != leaf_wait_for_) {
+      leaf_waiting_ = true;
+      leaf_wait_for_ = in_way;
+      leaf_wait_until_ = now_ + leaf_wait_time_;
+    }
+    return now_ < leaf_wait_until_;
+  }
+
   // A mate within 3 m: a robot standing in a corridor would be in its way.
   bool mate_close() const { return mate_within(3.0); }
   bool mate_within(double d) const {
@@ -663,6 +762,18 @@ class Team : public Plugin {
     }
   }
 
+  // Giving way with the way to the side spot blocked (the mate too close to turn away from):
+  // back straight off, slowly, while the map behind is free and the mate is within 1.2 m.
+  // True when this step's velocity is set here.
+  bool back_off(ModelCommand& cmd) {
+    if (nav_.mode() != "waiting" || !mate_within(1.2)) return false;
+    const Pose2 me = nav_.pose();
+    const Vec2 back{-std::cos(me.yaw), -std::sin(me.yaw)};
+    if (!nav_.planner().inflated().is_free(me.position() + back * 0.3)) return false;
+    cmd.set_velocity(-0.2, 0.0);
+    return true;
+  }
+
   // Vertices passed (entered within the visit radius of the estimate), told to the team.
   void note_visits() {
     const Vec2 p = nav_.pose().position();
@@ -705,7 +816,21 @@ class Team : public Plugin {
     for (int v : visited_now_) {
       if (v != target_) tell_visit(cmd, v);
     }
-    const bool reached = target_ >= 0 && (setup_->graph.vertex(target_).position - p).norm() <= visit_radius_;
+    // Reached: within the reach radius, or the navigator stopped there (a vertex it could not
+    // get closer to) within the visit radius.
+    const double to_target = target_ >= 0 ? (setup_->graph.vertex(target_).position - p).norm() : 1e9;
+    const bool leaf = target_ >= 0 && setup_->graph.vertex(static_cast<size_t>(target_)).edges.size() == 1;
+    // A mate standing on it (within the visit radius: it visits it now) while I am close:
+    // reached too, rather than wait for it to move off the vertex.
+    bool taken = false;
+    if (target_ >= 0 && to_target <= 2.0) {
+      const Vec2 tv = setup_->graph.vertex(static_cast<size_t>(target_)).position;
+      for (const auto& [id, m] : mates_) {
+        if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(0.5) && (m.where - tv).norm() <= visit_radius_) taken = true;
+      }
+    }
+    const bool reached = target_ >= 0 && (to_target <= (leaf ? reach_radius_ : visit_radius_) || taken ||
+                                          (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
     visited_now_.clear();
     if (target_ < 0) {
       last_at_ = -1;
@@ -716,7 +841,10 @@ class Team : public Plugin {
     // backing off to the side, and resumes once the other has gone by.
     if (yielding_) {
       const bool there = (yield_spot_ - p).norm() < 0.35 || !nav_.has_goal();
-      if (now_ < yield_until_ && !(there && !mate_within(2.0))) return;
+      // Resumed once no mate is within 2 m: at the spot, or a second on (the mate may have gone
+      // by before the spot is reached: waiting on for the spot would only lose time).
+      const bool clear = !mate_within(2.0) && (there || now_ - yield_from_ >= from_seconds(1.0));
+      if (now_ < yield_until_ && !clear) return;
       yielding_ = false;
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       return;
@@ -729,6 +857,7 @@ class Team : public Plugin {
         if (nav_.planner().inflated().is_free(spot) && nav_.planner().inflated().segment_free(p, spot)) {
           yielding_ = true;
           yield_spot_ = spot;
+          yield_from_ = now_;
           yield_until_ = now_ + from_seconds(8.0);
           nav_.go_to(spot, 0, "giving way", false);
           return;
@@ -795,6 +924,9 @@ class Team : public Plugin {
     bool patrolling = true;
     double yaw = 0;
     SimTime pose_time = -1;  // when `where` and `yaw` were measured (hello only)
+    double phase = -1;       // cyclic: along the shared walk (m; -1: not on it)
+    SimTime phase_moved = 0; // when its phase last moved on by more than 0.3 m
+    bool on_leaf_edge = false;
   };
 
   Navigator nav_;
@@ -803,7 +935,7 @@ class Team : public Plugin {
   std::string strategy_name_;
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
-  double visit_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
+  double visit_radius_ = 0.5, reach_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
   SimTime now_ = 0, next_hello_ = 0;
@@ -811,9 +943,14 @@ class Team : public Plugin {
   std::map<std::string, Mate> mates_;
   std::vector<std::string> team_;
   bool formed_ = false, responding_ = false, rechoose_ = false, holding_ = false, oncoming_ = false;
-  bool spacing_hold_ = true, yielding_ = false;
+  bool spacing_hold_ = true, yielding_ = false, spacing_pace_ = true;
+  double pace_ = 1.0;
+  bool on_leaf_edge_ = false, leaf_waiting_ = false;
+  std::string leaf_wait_for_;
+  SimTime leaf_wait_until_ = 0, leaf_wait_time_ = 0;
+  double leaf_wait_distance_ = 0.0;
   Vec2 yield_spot_;
-  SimTime yield_until_ = 0;
+  SimTime yield_until_ = 0, yield_from_ = 0;
   SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -32,7 +33,7 @@ struct PatrolBenchOptions {
   std::vector<std::string> strategies{"cyclic", "partition", "greedy"};
   double seconds = 1800, speed = 1.0, physics_hz = 10, visit_radius = 0.5;
   uint64_t seed = 1;
-  std::string json;
+  std::string json, trace;
   std::vector<std::string> set;  // extra team parameters, name=value
 };
 
@@ -55,6 +56,25 @@ std::vector<MapCase> bench_maps(const std::vector<std::string>& names) {
   return out;
 }
 
+// The longest interval between successive visits of one vertex, and who made them.
+struct WorstInterval {
+  int vertex = -1;
+  double from = 0, to = 0;
+  std::string before, after;
+};
+
+WorstInterval worst_interval(std::vector<Visit> visits) {
+  std::stable_sort(visits.begin(), visits.end(), [](const Visit& a, const Visit& b) { return a.t < b.t; });
+  std::map<int, const Visit*> last;
+  WorstInterval w;
+  for (const Visit& v : visits) {
+    auto it = last.find(v.vertex);
+    if (it != last.end() && v.t - it->second->t > w.to - w.from) w = {v.vertex, it->second->t, v.t, it->second->robot, v.robot};
+    last[v.vertex] = &v;
+  }
+  return w;
+}
+
 }  // namespace
 
 void add_bench_patrol_command(CLI::App* bench) {
@@ -70,6 +90,9 @@ void add_bench_patrol_command(CLI::App* bench) {
   cmd->add_option("--visit-radius", o->visit_radius, "a vertex is visited within this distance (m)")->capture_default_str();
   cmd->add_option("--seed", o->seed, "seed")->capture_default_str();
   cmd->add_option("--json", o->json, "also write the results as JSON to this file");
+  cmd->add_option("--trace", o->trace,
+                  "write every visit, the robots' true positions (each second) and their events (failed goals, team changes) of every run as CSV to this file")
+      ->capture_default_str();
   cmd->add_option("--set", o->set, "extra team controller parameters NAME=VALUE (numbers or true/false), e.g. spacing_hold=false")
       ->delimiter(',');
   cmd->callback([o] {
@@ -84,6 +107,11 @@ void add_bench_patrol_command(CLI::App* bench) {
     }
     const fs::path urdf = fs::path(VIGIL_SOURCE_DIR) / "maps" / "robots" / "erratic.urdf";
     nlohmann::ordered_json results = nlohmann::ordered_json::array();
+    std::ofstream trace;
+    if (!o->trace.empty()) {
+      trace.open(o->trace);
+      trace << "map,strategy,robots,kind,t,robot,vertex,x,y,event,mode,detail\n";
+    }
     for (const MapCase& mc : bench_maps(names)) {
       auto graph = PatrolGraph::read(mc.graph);
       if (!graph) throw Exit{report(graph.error())};
@@ -154,7 +182,14 @@ void add_bench_patrol_command(CLI::App* bench) {
           while (!(*world)->finished()) {
             if (Status s = (*world)->advance(); !s) throw Exit{report(s.error())};
             bus.exchange(**world);
-            for (const RobotReport& rep : (*world)->drain_reports()) failed += rep.event == "goal_failed";
+            for (const RobotReport& rep : (*world)->drain_reports()) {
+              failed += rep.event == "goal_failed";
+              if (trace.is_open() && !rep.event.empty() && rep.event != "goal_started" && rep.event != "goal_reached") {
+                trace << mc.name << ',' << strategy << ',' << n << ",event," << to_seconds((*world)->time()) << ','
+                      << rep.robot << ",-1," << rep.pose.x << ',' << rep.pose.y << ',' << rep.event << ',' << rep.mode
+                      << ",\"" << rep.detail << "\"\n";
+              }
+            }
             if ((*world)->time() >= next_sample) {
               std::vector<std::pair<std::string, Vec2>> at;
               for (const RobotEntity& r : (*world)->robots()) {
@@ -162,21 +197,41 @@ void add_bench_patrol_command(CLI::App* bench) {
                 at.push_back({r.spec.id, r.pose.position()});
               }
               interf.observe(at);
+              if (trace.is_open() && (*world)->time() % from_seconds(1.0) == 0) {
+                for (const auto& [id, q] : at) {
+                  trace << mc.name << ',' << strategy << ',' << n << ",pose," << to_seconds((*world)->time()) << ','
+                        << id << ",-1," << q.x << ',' << q.y << '\n';
+                }
+              }
               next_sample += sample_every;
             }
           }
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           const IdlenessStats st = idleness(visits.visits(), static_cast<int>(graph->size()), o->seconds);
+          // Where the worst interval was: the vertex, when it ended and the robots either side.
+          WorstInterval wi = worst_interval(visits.visits());
+          if (trace.is_open()) {
+            for (const Visit& v : visits.visits()) {
+              trace << mc.name << ',' << strategy << ',' << n << ",visit," << v.t << ',' << v.robot << ',' << v.vertex
+                    << ",0,0\n";
+            }
+          }
           const double ref = tour.length / (n * o->speed);
           std::printf("%-10s %6d %9.1f %9.1f %9.1f %7.1f %9.2f %9.2f %9d %7d %7d %8.1f%s\n", strategy.c_str(), n, ref,
                       st.average, st.worst, st.stddev, st.average / ref, st.worst / ref, st.intervals, interf.count(),
                       failed, wall, st.unvisited ? "  (unvisited vertices!)" : "");
+          if (wi.vertex >= 0) {
+            std::printf("%-10s %6s worst: vertex %d, %.1f s to %.1f s (%s, then %s)\n", "", "", wi.vertex, wi.from, wi.to,
+                        wi.before.c_str(), wi.after.c_str());
+          }
           std::fflush(stdout);
           results.push_back({{"map", mc.name}, {"strategy", strategy}, {"robots", n}, {"reference_s", ref},
                              {"average_s", st.average}, {"worst_s", st.worst}, {"stddev_s", st.stddev},
                              {"median_s", st.median}, {"intervals", st.intervals}, {"visits", st.visits},
                              {"unvisited", st.unvisited}, {"interferences", interf.count()}, {"goals_failed", failed},
-                             {"tour_m", tour.length}, {"wall_seconds", wall}});
+                             {"tour_m", tour.length}, {"wall_seconds", wall},
+                             {"worst_interval", {{"vertex", wi.vertex}, {"from_s", wi.from}, {"to_s", wi.to},
+                                                 {"robot_before", wi.before}, {"robot_after", wi.after}}}});
         }
       }
     }
