@@ -5,7 +5,7 @@ set -euo pipefail
 
 PKGS=(
   build-essential cmake ninja-build pkg-config git ca-certificates
-  libbox2d-dev libopencv-dev libeigen3-dev
+  libbox2d-dev libopencv-dev libopencv-contrib-dev libeigen3-dev
   libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev
   cyclonedds-dev cyclonedds-tools
   liburdfdom-dev liburdfdom-headers-dev
