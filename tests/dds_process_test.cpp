@@ -271,29 +271,22 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   fs::remove_all(dir);
 }
 
+// The command exits 2 and its message holds `why`.
+void expect_refused(const std::string& args, const std::string& why) {
+  const Output o = vigil_cmd(args);
+  EXPECT_EQ(o.code, 2) << args << "\n" << o.out;
+  EXPECT_NE(o.out.find(why), std::string::npos) << args << "\n" << o.out;
+}
+
 TEST(DdsProcesses, BadOptionsExitTwoWithTheReason) {
-  Output o = vigil_cmd("camera-node " + kScenario + " --camera cam_nowhere --sensor truth");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("no camera 'cam_nowhere'"), std::string::npos) << o.out;
-  o = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("has no vision sensor"), std::string::npos) << o.out;
-  o = vigil_cmd("camera-node " + kScenario + " --camera cam_corridor --sensor blobs");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("--sensor"), std::string::npos) << o.out;
-  o = vigil_cmd("server " + kScenario + " --dds-config /nonexistent/cyclone.xml --max-seconds 1");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("/nonexistent/cyclone.xml"), std::string::npos) << o.out;
+  expect_refused("camera-node " + kScenario + " --camera cam_nowhere --sensor truth", "no camera 'cam_nowhere'");
+  expect_refused("camera-node " + kScenario + " --camera cam_corridor", "has no vision sensor");
+  expect_refused("camera-node " + kScenario + " --camera cam_corridor --sensor blobs", "--sensor");
+  expect_refused("server " + kScenario + " --dds-config /nonexistent/cyclone.xml --max-seconds 1", "/nonexistent/cyclone.xml");
   const std::string team = (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string();
-  o = vigil_cmd("robot-node " + team + " --robot robot9 --duration 1");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("no robot 'robot9'"), std::string::npos) << o.out;
-  o = vigil_cmd("robot-node " + kScenario + " --robot robot1 --duration 1");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("is not a team robot"), std::string::npos) << o.out;
-  o = vigil_cmd("events --session '' --timeout 1");
-  EXPECT_EQ(o.code, 2) << o.out;
-  EXPECT_NE(o.out.find("session"), std::string::npos) << o.out;
+  expect_refused("robot-node " + team + " --robot robot9 --duration 1", "no robot 'robot9'");
+  expect_refused("robot-node " + kScenario + " --robot robot1 --duration 1", "is not a team robot");
+  expect_refused("events --session '' --timeout 1", "session");
 }
 
 }  // namespace

@@ -321,8 +321,10 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
   // Components to regions: leaves first (in leaf order), then parts no leaf reached.
   out->labels.create(h, w, CV_32S);
   int32_t* lab = out->labels.ptr<int32_t>(0);
-  std::vector<int32_t> region_of_root(n, -1);
-  std::vector<int> comp_size(n, 0);
+  std::vector<int32_t>& region_of_root = region_of_root_;
+  std::vector<int32_t>& comp_size = comp_size_;
+  region_of_root.assign(n, -1);
+  comp_size.assign(n, 0);
   for (size_t i = 0; i < n; ++i)
     if (!blocked_[i]) ++comp_size[root_[i]];
   out->regions.clear();

@@ -128,7 +128,7 @@ class MserSegmenter {
   std::vector<int32_t> next_, node_next_, touched_;
   std::vector<std::pair<int32_t, int32_t>> merges_;  // pass 1's unions (roots), in order
   // Pass 2.
-  std::vector<int32_t> parent2_, leaf_of_, root_;
+  std::vector<int32_t> parent2_, leaf_of_, root_, region_of_root_, comp_size_;
   // Feed-forward: the last frame and its labels; this frame's seeds (donor region per pixel).
   cv::Mat prev_frame_, prev_labels_;
   std::vector<int32_t> seed_of_;
