@@ -45,6 +45,13 @@ Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
   return pipeline_.process(plan_mask_, frame.depth, frame.stamp_ns);
 }
 
+void PlanViewSystem::reset() {
+  background_.reset();
+  pipeline_.reset();
+  foreground_.release();
+  plan_mask_.release();
+}
+
 void PlanViewSystem::filter_depth_edges(const cv::Mat& depth) {
   constexpr float kNone = 1e9f;
   // Nearest valid depth in the window: invalid depths (<= 0, NaN, inf) count as none.

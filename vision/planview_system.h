@@ -14,6 +14,7 @@
 #include "vision/planview_tracker.h"
 #include "vision/stereo_camera_model.h"
 #include "vision/track.h"
+#include "vision/tracker.h"
 #include "vision/yuvd_background.h"
 
 namespace vigil::vision {
@@ -39,13 +40,17 @@ struct PlanViewSystemParams {
   PlanViewTrackerParams tracking;  // tracking.camera names the tracks' camera
 };
 
-class PlanViewSystem {
+class PlanViewSystem : public Tracker {
  public:
   static Result<PlanViewSystem> create(const StereoCameraModel& camera, const PlanViewSystemParams& params = {});
 
   // One frame: needs frame.left (8-bit BGR) and frame.depth (CV_32F metres, invalid 0/NaN/inf)
   // of the camera's size, stamps increasing. Returns the tracks reported on this frame.
-  Result<std::vector<Track>> process(const StereoFrame& frame);
+  Result<std::vector<Track>> process(const StereoFrame& frame) override;
+  std::string_view name() const override { return "planview"; }
+  bool needs_depth() const override { return true; }
+  // Forgets the background model and every track (track ids keep counting up).
+  void reset() override;
 
   const cv::Mat& foreground() const { return foreground_; }
   const PlanView& plan_view() const { return pipeline_.plan_view(); }
@@ -54,7 +59,7 @@ class PlanViewSystem {
   // The annotated view of the last frame: the camera view with the tracks drawn (a box around
   // each track's projected cylinder, id and class), the foreground mask, and the plan-view
   // occupancy and height maps below, in one BGR image.
-  cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const;
+  cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const override;
 
  private:
   PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df)

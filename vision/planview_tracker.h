@@ -201,6 +201,8 @@ class PlanViewPipeline {
   const PlanView& plan_view() const { return view_; }
   const PlanViewBuilder& builder() const { return builder_; }
   const PlanViewTracker& tracker() const { return tracker_; }
+  // Forgets every track (ids keep counting up).
+  void reset() { tracker_.reset(); view_ = PlanView{}; }
 
  private:
   PlanViewPipeline(PlanViewBuilder b, PlanViewTracker t) : builder_(std::move(b)), tracker_(std::move(t)) {}

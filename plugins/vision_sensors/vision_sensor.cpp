@@ -9,7 +9,8 @@
 namespace vigil::sensors {
 
 std::unique_ptr<VisionSensor> make_truth_sensor();     // truth_sensor.cpp
-std::unique_ptr<VisionSensor> make_planview_sensor();  // planview_sensor.cpp
+std::unique_ptr<VisionSensor> make_planview_sensor();  // tracker_sensor.cpp
+std::unique_ptr<VisionSensor> make_mser_sensor();      // tracker_sensor.cpp
 
 namespace {
 
@@ -20,6 +21,7 @@ std::map<std::string, Factory>& registry() {
     std::map<std::string, Factory> m;
     m["truth"] = make_truth_sensor;
     m["planview"] = make_planview_sensor;
+    m["mser"] = make_mser_sensor;
     return m;
   }();
   return r;

@@ -137,7 +137,7 @@ void add_camera_node(CLI::App& app) {
   auto* cmd = app.add_subcommand("camera-node", "Run one camera's vision pipeline and publish its events over DDS");
   cmd->add_option("scenario", o->scenario, "scenario YAML file")->required();
   cmd->add_option("--camera", o->camera, "the camera this node serves")->required();
-  cmd->add_option("--sensor", o->sensor, "vision sensor overriding the camera's plugin (truth, planview)");
+  cmd->add_option("--sensor", o->sensor, "vision sensor overriding the camera's plugin (truth, planview, mser)");
   cmd->add_option("--out", o->out, "also write this node's tracks.jsonl and camera_events.jsonl here");
   cmd->add_option("--duration", o->duration, "simulated seconds overriding the scenario's");
   cmd->add_option("--speed", o->speed, "run at most this many times real time (0: as fast as possible)")->capture_default_str();

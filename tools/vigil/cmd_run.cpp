@@ -42,7 +42,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_flag("--quiet,-q", opts->quiet, "no progress output");
   cmd->add_option("--plugin-path", opts->plugin_paths, "extra folder to search for plugin libraries");
   cmd->add_option("--sensor", opts->sensor,
-                  "attach this vision sensor (truth, planview) to every camera that has none in the scenario");
+                  "attach this vision sensor (truth, planview, mser) to every camera that has none in the scenario");
   cmd->add_option("--dds-domain", opts->dds_domain, "DDS domain id for the events (0 to 232)")->capture_default_str();
   cmd->add_option("--dds-config", opts->dds_config, "Cyclone DDS XML configuration (default: loopback only)");
   cmd->add_option("--team-transport", opts->team_transport,

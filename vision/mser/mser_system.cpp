@@ -131,6 +131,7 @@ void MserSystem::learn() {
       if (2 * m.count >= p_.learn_frames &&
           m.moved / std::max(1, m.count - 1) <= p_.still_speed + 0.02 * (m.width + m.height))
         model_.push_back(m);
+    for (Entry& m : model_) m.origin = m.centroid;
     candidates_.clear();
   }
 }
@@ -165,6 +166,16 @@ void MserSystem::classify() {
       m.width = (1 - a) * m.width + a * w;
       m.height = (1 - a) * m.height + a * h;
       m.colour = (1 - a) * m.colour + a * reg.mean;
+      // A background region that wanders off from where it was learned (a distant person,
+      // walking slowly enough in the image to look still while the model was learned) is
+      // something moving: the entry goes, the region is foreground.
+      if (cv::norm(m.centroid - m.origin) > p_.bg_shift + 0.25 * (m.width + m.height)) {
+        m.gone = true;
+        ++moved_background_;
+        if (t) t->background = false;
+        is_fg[r] = 1;
+        continue;
+      }
       if (t) {
         t->background = true;
         t->still_foreground = 0;
@@ -188,6 +199,8 @@ void MserSystem::classify() {
       }
     }
   }
+  model_.erase(std::remove_if(model_.begin(), model_.end(), [](const Entry& m) { return m.gone; }), model_.end());
+  for (Entry& m : absorb) m.origin = m.centroid;
   model_.insert(model_.end(), absorb.begin(), absorb.end());
   const int32_t* l = lab.ptr<int32_t>(0);
   uint8_t* f = fg_.ptr<uint8_t>(0);

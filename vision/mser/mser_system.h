@@ -12,7 +12,9 @@
 // entry but whose colour is the model's under it (the learned regions' mean colours, per pixel)
 // is a background region whose shape changed (cut by someone passing in front): background. Any
 // other region is foreground; one whose track was background is a background region behaving
-// unexpectedly (counted in `moved_background`). A foreground region
+// unexpectedly (counted in `moved_background`). An entry that, following its region, drifts
+// from where it was learned by more than its matching radius was something moving slowly while
+// the model was learned (a distant walker): it leaves the model and its region is foreground. A foreground region
 // that stays still for `absorb_frames` frames is taken into the model.
 //
 // Objects. The foreground regions' pixels, closed with a `close_px` square, give connected
@@ -100,6 +102,8 @@ class MserSystem {
     cv::Vec3f colour;
     int count = 1;       // learning: frames it was seen in
     double moved = 0;    // learning: how far its matches' centroids were from it, summed
+    cv::Point2f origin;  // where it entered the model
+    bool gone = false;   // found moving: leaves the model at the end of the frame
   };
   struct TrackInfo {
     int seen = 0;

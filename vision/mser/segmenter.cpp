@@ -93,11 +93,18 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
       ++unchanged[r];
     }
   }
+  // The last frame's region colours.
+  std::vector<cv::Vec3d> colour(regions, cv::Vec3d(0, 0, 0));
+  for (size_t i = 0; i < n; ++i) colour[lab[i]] += cv::Vec3d(old[i][0], old[i][1], old[i][2]);
+  for (size_t r = 0; r < regions; ++r) colour[r] /= std::max(1, size[r]);
+  const double colour2 = p_.seed_colour * p_.seed_colour;
   std::vector<int> groups(regions, 0);
   for (size_t i = 0; i < n; ++i) {
     const int r = lab[i];
     if (!same[i] || blocked_[i] || 2 * unchanged[r] <= size[r]) continue;
     const double mean = grad_sum[r] / std::max(1, size[r]);
+    const double d0 = cur[i][0] - colour[r][0], d1 = cur[i][1] - colour[r][1], d2 = cur[i][2] - colour[r][2];
+    if (d0 * d0 + d1 * d1 + d2 * d2 > colour2) continue;
     if (grad[i] < mean || grad[i] < p_.low_gradient) {
       seed_of_[i] = r;
       ++seeded_;

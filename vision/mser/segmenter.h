@@ -40,11 +40,15 @@ struct SegmenterParams {
   bool use_lines = true;    // line constraint (off: plain colour MSER evolution)
   // Region feed-forward (10.3.1): pixels unchanged since the last frame (every channel within
   // `unchanged_within`) in a region whose majority is unchanged, and whose gradient is below the
-  // region's average (or below `low_gradient`), seed this frame's evolution as one group per
-  // region. Off: every frame from scratch.
+  // region's average (or below `low_gradient`), and whose colour is within `seed_colour` of the
+  // region's mean, seed this frame's evolution as one group per region. The colour gate keeps a
+  // region that swallowed something unlike it (a distant person's shirt, merged into the wall
+  // while it was a few pixels) from passing the merge on frame after frame: the swallowed part's
+  // pixels evolve afresh and become their own region once they can. Off: every frame from scratch.
   bool feed_forward = false;
   int unchanged_within = 1;
   int low_gradient = 8;
+  double seed_colour = 30;  // the tracking phases' colour limit (region_tracker.h)
   LineParams lines;
 };
 

@@ -1,0 +1,143 @@
+#include "vision/mser/mser_tracker.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+
+#include "vision/planview_system.h"
+
+namespace vigil::vision::mser {
+
+Status MserTrackerParams::validate() const {
+  if (!(max_range > 0) || !std::isfinite(max_range)) return bad_input("", 0, "max_range", "must be a positive distance (m)");
+  if (!(velocity_smoothing > 0 && velocity_smoothing <= 1))
+    return bad_input("", 0, "velocity_smoothing", "must be in (0, 1]");
+  if (!(class_vote_decay > 0 && class_vote_decay <= 1)) return bad_input("", 0, "class_vote_decay", "must be in (0, 1]");
+  if (system.warmup_frames < 0 || system.learn_frames < 1)
+    return bad_input("", 0, "learn_frames", "needs at least one learning frame and no negative warm-up");
+  if (system.confirm_frames < 1) return bad_input("", 0, "confirm_frames", "must be at least 1");
+  return Status::Ok();
+}
+
+Result<MserTracker> MserTracker::create(const StereoCameraModel& camera, const MserTrackerParams& params) {
+  if (Status s = params.validate(); !s) return s.error();
+  const auto& k = camera.intrinsics();
+  if (k.width < 3 || k.height < 3 || !(k.fx > 0)) return bad_input("", 0, "camera", "the camera's intrinsics are not usable");
+  return MserTracker(camera, params);
+}
+
+void MserTracker::reset() {
+  system_.reset();
+  history_.clear();
+  id_offset_ = max_id_;
+}
+
+bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {
+  const auto& k = camera_.intrinsics();
+  if (box.y + box.height >= k.height) return false;  // the feet are cut off by the image's edge
+  const Eigen::Vector3d c = camera_.pose().position;
+  const double u = box.x + 0.5 * (box.width - 1);
+  const double v_bottom = box.y + box.height - 0.5;
+  const Eigen::Vector3d foot_dir = camera_.back_project_map(u, v_bottom, 1.0) - c;
+  if (!(foot_dir.z() < -1e-9)) return false;  // at or above the horizon
+  const double t = -c.z() / foot_dir.z();
+  const Eigen::Vector3d foot = c + t * foot_dir;
+  const Eigen::Vector2d horiz(foot.x() - c.x(), foot.y() - c.y());
+  const double dist = horiz.norm();
+  if (!(dist > 1e-6) || dist > p_.max_range) return false;
+  // Depth along the optical axis of the foot point: scales pixels to metres.
+  const double depth = (camera_.optical_from_map() * foot).z();
+  if (!(depth > 0)) return false;
+  const double w = box.width * depth / k.fx;
+  // The visible bottom is the footprint's near side: its centre is half a width further.
+  const Eigen::Vector2d along = horiz / dist;
+  const Eigen::Vector2d centre = Eigen::Vector2d(foot.x(), foot.y()) + 0.5 * w * along;
+  // The top: the ray through the box's top at the footprint's horizontal distance.
+  const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
+  const double top_h = std::hypot(top_dir.x(), top_dir.y());
+  if (!(top_h > 1e-9)) return false;
+  const double far = (centre - Eigen::Vector2d(c.x(), c.y())).norm();
+  const double h = c.z() + top_dir.z() * far / top_h;
+  *x = centre.x();
+  *y = centre.y();
+  *width = w;
+  *height = std::max(0.0, h);
+  return std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*height);
+}
+
+Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
+  const auto& k = camera_.intrinsics();
+  const std::string at = "frame " + std::to_string(frame.index);
+  if (frame.left.empty()) return bad_input("", 0, "frame", at + " has no image");
+  if (frame.left.type() != CV_8UC3) return bad_input("", 0, "frame", at + " is not an 8-bit colour image");
+  if (frame.left.cols != k.width || frame.left.rows != k.height)
+    return bad_input("", 0, "frame",
+                     at + " is " + std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
+                         " but the camera is " + std::to_string(k.width) + "x" + std::to_string(k.height));
+  if (last_stamp_ != INT64_MIN && frame.stamp_ns <= last_stamp_)
+    return bad_input("", 0, "frame", at + ": its stamp is not after the previous frame's");
+  std::string error;
+  if (!system_.process(frame.left, &error)) return bad_input("", 0, "frame", at + ": " + error);
+  last_stamp_ = frame.stamp_ns;
+
+  std::vector<Track> out;
+  std::map<int64_t, History> next;
+  for (const ImageObject& o : system_.objects()) {
+    double x, y, w, h;
+    if (!box_to_map(o.box, &x, &y, &w, &h)) continue;
+    const int64_t id = o.id + id_offset_;
+    max_id_ = std::max(max_id_, id);
+    History hist;
+    if (auto it = history_.find(id); it != history_.end()) {
+      hist = it->second;
+      const double gap = (frame.stamp_ns - hist.stamp_ns) * 1e-9;
+      if (gap > 0) {
+        const double a = p_.velocity_smoothing;
+        hist.vx = (1 - a) * hist.vx + a * (x - hist.x) / gap;
+        hist.vy = (1 - a) * hist.vy + a * (y - hist.y) / gap;
+      }
+    }
+    for (auto& [c, v] : hist.votes) v *= p_.class_vote_decay;
+    hist.votes[classify_track(h, w, p_.classes)] += 1.0;
+    hist.stamp_ns = frame.stamp_ns;
+    hist.x = x;
+    hist.y = y;
+    TrackClass cls = TrackClass::kUnknown;
+    double best = -1;
+    for (const auto& [c, v] : hist.votes)  // std::map: ties go to the first class in order
+      if (v > best) best = v, cls = c;
+    next[id] = hist;
+    Track t;
+    t.stamp_ns = frame.stamp_ns;
+    t.camera = p_.camera;
+    t.id = static_cast<int>(id);
+    t.cls = cls;
+    t.x = x;
+    t.y = y;
+    t.vx = hist.vx;
+    t.vy = hist.vy;
+    t.width = w;
+    t.height = h;
+    t.confidence = std::min(1.0, 0.5 + 0.05 * o.age);
+    t.measured = true;
+    out.push_back(std::move(t));
+  }
+  // Objects unseen this frame keep their history while the system still looks for them.
+  for (auto& [id, hist] : history_)
+    if (!next.count(id) && (frame.stamp_ns - hist.stamp_ns) * 1e-9 < 2.0) next[id] = hist;
+  history_.swap(next);
+  return out;
+}
+
+cv::Mat MserTracker::annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const {
+  cv::Mat view = frame.left.empty() ? cv::Mat(camera_.intrinsics().height, camera_.intrinsics().width, CV_8UC3, cv::Scalar::all(0))
+                                    : frame.left.clone();
+  draw_tracks_on_view(&view, camera_, tracks);
+  cv::Mat seg = system_.frames() > 0 ? system_.annotate(frame.left) : cv::Mat::zeros(view.size(), CV_8UC3);
+  if (seg.size() != view.size()) return view;
+  cv::Mat both;
+  cv::hconcat(view, seg, both);
+  return both;
+}
+
+}  // namespace vigil::vision::mser

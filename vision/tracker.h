@@ -1,0 +1,38 @@
+// One interface for Vigil's camera systems (the stereo plan-view tracker of section 10.4, the
+// colour MSER system of 10.3): frames in, map-frame tracks out, reset, and an annotated picture.
+// The vision sensor of plugins/vision_sensors wraps any Tracker on a scenario camera; `vigil
+// track` runs one on recorded frames. A tracker sees only what its camera gives it: the frames
+// and the camera's calibration, never the world.
+#pragma once
+
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "common/status.h"
+#include "vision/frame_source.h"
+#include "vision/track.h"
+
+namespace vigil::vision {
+
+class Tracker {
+ public:
+  virtual ~Tracker() = default;
+  // The system's name, as a camera's `plugin:` names it ("planview", "mser").
+  virtual std::string_view name() const = 0;
+  // True when process() needs frame.depth (a stereo system); false when the left image is enough.
+  virtual bool needs_depth() const = 0;
+  // One frame, stamps increasing. Returns the tracks reported on this frame (map frame, the
+  // tracker's camera id). Bad input (wrong size or type, a missing image) is an error naming
+  // what is wrong; the tracker's state is unchanged by it.
+  virtual Result<std::vector<Track>> process(const StereoFrame& frame) = 0;
+  // Forgets everything learned (background, tracks); the next frame starts afresh. Track ids
+  // are not reused after a reset.
+  virtual void reset() = 0;
+  // The last processed frame annotated for a video: the camera view with the tracks drawn and
+  // the system's own intermediate pictures (BGR, any size).
+  virtual cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const = 0;
+};
+
+}  // namespace vigil::vision
