@@ -43,7 +43,7 @@ void MserSystem::reset() {
 
 bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
   if (!seg_.segment(bgr, &seg_out_, error)) return false;
-  region_ids_ = tracker_.update(seg_out_);
+  region_ids_ = tracker_.update(seg_out_, &seg_.lines());
   // Track statistics: frames seen, how far it moved.
   for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
     const int64_t id = region_ids_[r];
