@@ -304,7 +304,7 @@ void MserSystem::update_objects() {
     }
     // Ended: a reported object's model is kept for when it comes back.
     auto it = object_regions_.find(obj.id);
-    if (p_.recognise && obj.age + 1 >= p_.confirm_frames && it != object_regions_.end() && models_.add(obj.id, it->second.regions)) {
+    if (p_.recognise && (obj.age + 1 >= p_.confirm_frames || obj.recognised) && it != object_regions_.end() && models_.add(obj.id, it->second.regions)) {
       model_order_.push_back(obj.id);
       while (static_cast<int>(model_order_.size()) > std::max(0, p_.max_models)) {
         models_.remove(model_order_.front());

@@ -24,8 +24,9 @@
 // Object models (10.3.4, object_model.h), with `recognise`: every object keeps its foreground
 // regions (centroid, second moments, mean colour, and the share of each region's boundary on
 // lines) from the frame it showed the most foreground in (within 10 %: the latest such frame),
-// so an object leaving the image is modelled before the border cut it. When an object that had been reported ends (unseen for
-// `keep_lost` frames), its model goes into a hash table of the last `max_models` ended objects.
+// so an object leaving the image is modelled before the border cut it. When an object that had
+// been reported (or recognised) ends (unseen for `keep_lost` frames), its model goes into a hash
+// table of the last `max_models` ended objects.
 // A new object is looked up in it in every frame while tentative: when the vote recognises one
 // (its features agreeing on a size and place), the new object takes that object's id back (a
 // re-entering object), its model leaves the table, and it is reported as `recognised`.
