@@ -360,6 +360,41 @@ TEST(MserTracking, LineCornerTrackingKeepsAHalfHiddenRegionWhoseSizeChanged) {
   }
 }
 
+// Phase 4 reapplies line-corner matching: the same bar gone for a frame, then back with two
+// thirds hidden. Phase 3 only looks at tracks lost this frame and phase 4's MSER tracking refuses
+// the size; phase 4's line corners find it.
+TEST(MserTracking, SecondaryTrackingReappliesLineCornersToATrackLostForAFrame) {
+  auto frame = [](int f) {
+    cv::Mat img(100, 140, CV_8UC3);
+    cv::RNG rng(4);
+    rng.fill(img, cv::RNG::UNIFORM, 100, 104);
+    if (f != 1) cv::rectangle(img, cv::Rect(30, 30, 60, 30), cv::Scalar(20, 20, 120), cv::FILLED);
+    if (f == 2) cv::rectangle(img, cv::Rect(50, 20, 60, 50), cv::Scalar(60, 230, 60), cv::FILLED);
+    return img;
+  };
+  for (bool on : {true, false}) {
+    RegionTrackerParams p;
+    p.line_tracking = on;
+    MserSegmenter seg;
+    RegionTracker tr(p);
+    Segmentation s[3];
+    std::vector<int64_t> ids[3];
+    for (int f = 0; f < 3; ++f) {
+      ASSERT_TRUE(seg.segment(frame(f), &s[f]));
+      ids[f] = tr.update(s[f], &seg.lines());
+    }
+    const int64_t bar0 = id_at(s[0], ids[0], 40, 45), bar2 = id_at(s[2], ids[2], 40, 45);
+    if (on) {
+      EXPECT_EQ(bar2, bar0);
+      EXPECT_EQ(tr.counts().secondary_line, 1);
+      EXPECT_EQ(tr.counts().line, 0) << "lost a frame ago: not phase 3's";
+    } else {
+      EXPECT_NE(bar2, bar0);
+      EXPECT_EQ(tr.counts().secondary_line, 0);
+    }
+  }
+}
+
 // The system on a scripted sequence: a still scene (a noisy floor, a wall band, a box) learns
 // its region background; a figure that walks in afterwards is foreground, one object with one id
 // whose box follows it; the still parts are never objects.
