@@ -274,6 +274,127 @@ TEST(MserTracking, SecondaryTrackingFindsALostRegionWhereItsMotionPutsIt) {
   EXPECT_EQ(id_at(s, ids, x + 12, 32), square) << "the lost square's track again";
 }
 
+// Line corners: a square's four edges give each of its corners twice (the two edges meeting
+// there), with the angle and handedness as seen from the square; the background on the other
+// side of an edge sees the same end points with the angle turned 180 degrees and the hands
+// swapped.
+TEST(MserTracking, LineCornersAreTheSegmentEndsOnARegionSBoundary) {
+  MserSegmenter seg;
+  Segmentation s;
+  cv::Mat img(100, 140, CV_8UC3);
+  cv::RNG rng(4);
+  rng.fill(img, cv::RNG::UNIFORM, 100, 104);
+  // Dark red on grey: Canny (on the grey image) sees its edges.
+  cv::rectangle(img, cv::Rect(40, 30, 24, 24), cv::Scalar(20, 20, 120), cv::FILLED);
+  ASSERT_TRUE(seg.segment(img, &s));
+  const auto corners = line_corners(s, seg.lines(), RegionTrackerParams{});
+  const int square = s.labels.at<int32_t>(42, 52), bg = s.labels.at<int32_t>(5, 5);
+  ASSERT_NE(square, bg);
+  const auto& sq = corners[square];
+  ASSERT_GE(sq.size(), 4u);
+  // Every corner lies on the square's outline; the polyline's ends find three or four of its
+  // four corners (Douglas-Peucker may break an edge a few pixels from a corner).
+  const cv::Point2f outline[4] = {{40, 30}, {63, 30}, {40, 53}, {63, 53}};
+  int found[4] = {0, 0, 0, 0};
+  for (const LineCorner& c : sq) {
+    EXPECT_EQ(c.region, square);
+    EXPECT_LT(cv::norm(c.colour - s.regions[square].mean), 1.0);
+    const double off = std::min({std::abs(c.pos.x - 40), std::abs(c.pos.x - 63), std::abs(c.pos.y - 30), std::abs(c.pos.y - 53)});
+    EXPECT_LE(off, 2.0) << c.pos;
+    for (int k = 0; k < 4; ++k) found[k] += cv::norm(c.pos - outline[k]) <= 3;
+  }
+  EXPECT_GE((found[0] > 0) + (found[1] > 0) + (found[2] > 0) + (found[3] > 0), 3);
+  // The same end point seen from the background: angle turned by pi, other hand.
+  int mirrored = 0;
+  for (const LineCorner& c : sq)
+    for (const LineCorner& o : corners[bg]) {
+      if (cv::norm(c.pos - o.pos) > 0.5) continue;
+      const double turn = std::abs(std::remainder(static_cast<double>(o.angle - c.angle), 2 * M_PI));
+      if (std::abs(turn - M_PI) < 0.05) {
+        ++mirrored;
+        EXPECT_NE(c.left, o.left) << c.pos;
+      }
+    }
+  EXPECT_GE(mirrored, 2);
+  // Bad input does not crash: no labels, no corners.
+  EXPECT_TRUE(line_corners(Segmentation{}, seg.lines(), RegionTrackerParams{}).empty());
+}
+
+// Phase 3: a red bar whose right two thirds are hidden behind a green panel from one frame to the
+// next. Its width falls to a third, beyond phase 2's (and phase 4's looser) size ratio, but its
+// left corners stay put: line-corner tracking keeps its track; without it the bar is a new track.
+TEST(MserTracking, LineCornerTrackingKeepsAHalfHiddenRegionWhoseSizeChanged) {
+  auto frame = [](bool hidden) {
+    cv::Mat img(100, 140, CV_8UC3);
+    cv::RNG rng(4);
+    rng.fill(img, cv::RNG::UNIFORM, 100, 104);
+    cv::rectangle(img, cv::Rect(30, 30, 60, 30), cv::Scalar(20, 20, 120), cv::FILLED);
+    if (hidden) cv::rectangle(img, cv::Rect(50, 20, 60, 50), cv::Scalar(60, 230, 60), cv::FILLED);
+    return img;
+  };
+  for (bool on : {true, false}) {
+    RegionTrackerParams p;
+    p.line_tracking = on;
+    MserSegmenter seg;  // no feed-forward: phase 1 does not link it
+    RegionTracker tr(p);
+    Segmentation s1, s2;
+    ASSERT_TRUE(seg.segment(frame(false), &s1));
+    const auto ids1 = tr.update(s1, &seg.lines());
+    ASSERT_TRUE(seg.segment(frame(true), &s2));
+    const auto ids2 = tr.update(s2, &seg.lines());
+    const Region& before = s1.regions[s1.labels.at<int32_t>(45, 40)];
+    const Region& after = s2.regions[s2.labels.at<int32_t>(45, 40)];
+    ASSERT_GT(before.width() / after.width(), 2.25) << "beyond phase 4's size ratio too";
+    const int64_t bar1 = id_at(s1, ids1, 40, 45), bar2 = id_at(s2, ids2, 40, 45);
+    if (on) {
+      EXPECT_EQ(bar2, bar1) << "linked by its unchanged corners";
+      EXPECT_GE(tr.counts().line, 1);
+      for (const RegionTrack& t : tr.tracks()) {
+        if (t.id == bar2) EXPECT_EQ(t.phase, TrackPhase::kLine);
+      }
+    } else {
+      EXPECT_NE(bar2, bar1) << "without phase 3 the bar is lost";
+      EXPECT_EQ(tr.counts().line, 0);
+    }
+    EXPECT_NE(id_at(s2, ids2, 80, 45), bar1) << "the green panel is not the bar";
+  }
+}
+
+// Phase 4 reapplies line-corner matching: the same bar gone for a frame, then back with two
+// thirds hidden. Phase 3 only looks at tracks lost this frame and phase 4's MSER tracking refuses
+// the size; phase 4's line corners find it.
+TEST(MserTracking, SecondaryTrackingReappliesLineCornersToATrackLostForAFrame) {
+  auto frame = [](int f) {
+    cv::Mat img(100, 140, CV_8UC3);
+    cv::RNG rng(4);
+    rng.fill(img, cv::RNG::UNIFORM, 100, 104);
+    if (f != 1) cv::rectangle(img, cv::Rect(30, 30, 60, 30), cv::Scalar(20, 20, 120), cv::FILLED);
+    if (f == 2) cv::rectangle(img, cv::Rect(50, 20, 60, 50), cv::Scalar(60, 230, 60), cv::FILLED);
+    return img;
+  };
+  for (bool on : {true, false}) {
+    RegionTrackerParams p;
+    p.line_tracking = on;
+    MserSegmenter seg;
+    RegionTracker tr(p);
+    Segmentation s[3];
+    std::vector<int64_t> ids[3];
+    for (int f = 0; f < 3; ++f) {
+      ASSERT_TRUE(seg.segment(frame(f), &s[f]));
+      ids[f] = tr.update(s[f], &seg.lines());
+    }
+    const int64_t bar0 = id_at(s[0], ids[0], 40, 45), bar2 = id_at(s[2], ids[2], 40, 45);
+    if (on) {
+      EXPECT_EQ(bar2, bar0);
+      EXPECT_EQ(tr.counts().secondary_line, 1);
+      EXPECT_EQ(tr.counts().line, 0) << "lost a frame ago: not phase 3's";
+    } else {
+      EXPECT_NE(bar2, bar0);
+      EXPECT_EQ(tr.counts().secondary_line, 0);
+    }
+  }
+}
+
 // The system on a scripted sequence: a still scene (a noisy floor, a wall band, a box) learns
 // its region background; a figure that walks in afterwards is foreground, one object with one id
 // whose box follows it; the still parts are never objects.

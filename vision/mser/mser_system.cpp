@@ -26,7 +26,7 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
 }  // namespace
 
 MserSystem::MserSystem(MserSystemParams params)
-    : p_(params), seg_(with_feed_forward(params.segmenter)), tracker_(params.tracking) {}
+    : p_(params), seg_(with_feed_forward(params.segmenter)), tracker_(params.tracking), models_(params.models) {}
 
 void MserSystem::reset() {
   seg_.reset();
@@ -39,11 +39,14 @@ void MserSystem::reset() {
   moved_background_ = 0;
   reshaped_background_ = 0;
   model_image_.release();
+  models_.clear();
+  model_order_.clear();
+  object_regions_.clear();
 }
 
 bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
   if (!seg_.segment(bgr, &seg_out_, error)) return false;
-  region_ids_ = tracker_.update(seg_out_);
+  region_ids_ = tracker_.update(seg_out_, &seg_.lines());
   // Track statistics: frames seen, how far it moved.
   for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
     const int64_t id = region_ids_[r];
@@ -208,9 +211,42 @@ void MserSystem::classify() {
   for (size_t i = 0; i < n; ++i) f[i] = is_fg[l[i]] ? 255 : 0;
 }
 
+std::vector<std::vector<ModelRegion>> MserSystem::box_regions(const cv::Mat& cc, const std::vector<int>& box_of) const {
+  const cv::Mat& lab = seg_out_.labels;
+  const size_t nr = seg_out_.regions.size();
+  std::vector<int> box_of_region(nr, -1), boundary(nr, 0), on_line(nr, 0);
+  // Lines, widened by a pixel: a region's boundary pixel beside one is on a line.
+  cv::Mat near_line;
+  cv::dilate(seg_.lines().mask, near_line, cv::Mat::ones(3, 3, CV_8U));
+  for (int y = 0; y < lab.rows; ++y) {
+    const int32_t* l = lab.ptr<int32_t>(y);
+    const uint8_t* f = fg_.ptr<uint8_t>(y);
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* nl = near_line.ptr<uint8_t>(y);
+    for (int x = 0; x < lab.cols; ++x) {
+      if (!f[x]) continue;
+      const int r = l[x];
+      if (box_of_region[r] < 0 && c[x] > 0) box_of_region[r] = box_of[c[x]];
+      const bool edge = (x > 0 && l[x - 1] != r) || (x + 1 < lab.cols && l[x + 1] != r) ||
+                        (y > 0 && lab.ptr<int32_t>(y - 1)[x] != r) || (y + 1 < lab.rows && lab.ptr<int32_t>(y + 1)[x] != r);
+      if (!edge) continue;
+      ++boundary[r];
+      on_line[r] += nl[x] != 0;
+    }
+  }
+  std::vector<std::vector<ModelRegion>> out(*std::max_element(box_of.begin(), box_of.end()) + 1);
+  for (size_t r = 0; r < nr; ++r) {
+    if (box_of_region[r] < 0 || seg_out_.regions[r].size < p_.tracking.min_size) continue;
+    const float straight = boundary[r] > 0 ? static_cast<float>(on_line[r]) / boundary[r] : 0.0f;
+    out[box_of_region[r]].push_back(ModelRegion::from(seg_out_.regions[r], straight));
+  }
+  return out;
+}
+
 void MserSystem::update_objects() {
   std::vector<cv::Rect> boxes;
   std::vector<int> areas;
+  std::vector<std::vector<ModelRegion>> regions_of_box;
   if (!learning()) {
     cv::Mat closed;
     const int k = std::max(1, p_.close_px);
@@ -218,6 +254,7 @@ void MserSystem::update_objects() {
     cv::Mat cc, stats, centroids;
     const int n = cv::connectedComponentsWithStats(closed, cc, stats, centroids, 8, CV_32S);
     const double min_area = p_.min_object_area * static_cast<double>(fg_.total());
+    std::vector<int> box_of(n, -1);  // component -> box
     for (int i = 1; i < n; ++i) {
       const int area = stats.at<int>(i, cv::CC_STAT_AREA);
       if (area < min_area) continue;
@@ -226,11 +263,22 @@ void MserSystem::update_objects() {
       // Foreground (before closing) within the component's box.
       const int fg_px = cv::countNonZero(fg_(box) & (cc(box) == i));
       if (fg_px < p_.min_fill * box.area()) continue;
+      box_of[i] = static_cast<int>(boxes.size());
       boxes.push_back({stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP), stats.at<int>(i, cv::CC_STAT_WIDTH),
                        stats.at<int>(i, cv::CC_STAT_HEIGHT)});
       areas.push_back(area);
     }
+    if (p_.recognise && !boxes.empty()) regions_of_box = box_regions(cc, box_of);
   }
+  regions_of_box.resize(boxes.size());
+  // An object's view for its model: the regions of the frame it showed the most foreground in
+  // (or nearly: the later one), so an object leaving the image is modelled before it was cut.
+  auto keep_view = [&](int64_t id, int area, std::vector<ModelRegion>* regions) {
+    if (regions->empty()) return;
+    auto it = object_regions_.find(id);
+    if (it != object_regions_.end() && area < 0.9 * it->second.area) return;
+    object_regions_[id] = {std::move(*regions), std::max(area, it != object_regions_.end() ? it->second.area : 0)};
+  };
   // Greedy by overlap with each object's predicted box.
   std::vector<std::tuple<double, size_t, size_t>> pairs;
   for (size_t o = 0; o < objects_.size(); ++o) {
@@ -257,12 +305,26 @@ void MserSystem::update_objects() {
     obj.area = areas[b];
     obj.lost = 0;
     ++obj.age;
+    keep_view(obj.id, areas[b], &regions_of_box[b]);
     next.push_back(obj);
   }
   for (size_t o = 0; o < objects_.size(); ++o) {
     if (used_o[o]) continue;
     ImageObject obj = objects_[o];
-    if (++obj.lost <= p_.keep_lost) next.push_back(obj);
+    if (++obj.lost <= p_.keep_lost) {
+      next.push_back(obj);
+      continue;
+    }
+    // Ended: a reported object's model is kept for when it comes back.
+    auto it = object_regions_.find(obj.id);
+    if (p_.recognise && (obj.age + 1 >= p_.confirm_frames || obj.recognised) && it != object_regions_.end() && models_.add(obj.id, it->second.regions)) {
+      model_order_.push_back(obj.id);
+      while (static_cast<int>(model_order_.size()) > std::max(0, p_.max_models)) {
+        models_.remove(model_order_.front());
+        model_order_.erase(model_order_.begin());
+      }
+    }
+    if (it != object_regions_.end()) object_regions_.erase(it);
   }
   for (size_t b = 0; b < boxes.size(); ++b) {
     if (used_b[b]) continue;
@@ -270,8 +332,24 @@ void MserSystem::update_objects() {
     obj.id = next_object_++;
     obj.box = boxes[b];
     obj.area = areas[b];
+    keep_view(obj.id, areas[b], &regions_of_box[b]);
     next.push_back(obj);
   }
+  // A tentative object seen this frame: is it an ended object come back? Then it takes its id.
+  if (p_.recognise && models_.size() > 0)
+    for (ImageObject& obj : next) {
+      if (obj.lost != 0 || obj.recognised || obj.age + 1 > p_.confirm_frames) continue;
+      auto it = object_regions_.find(obj.id);
+      if (it == object_regions_.end()) continue;
+      const Recognition rec = models_.recognise(it->second.regions);
+      if (!rec.recognised) continue;
+      models_.remove(rec.id);
+      model_order_.erase(std::find(model_order_.begin(), model_order_.end(), rec.id));
+      object_regions_[rec.id] = std::move(it->second);
+      object_regions_.erase(it);
+      obj.id = rec.id;
+      obj.recognised = true;
+    }
   std::sort(next.begin(), next.end(), [](const ImageObject& a, const ImageObject& b) { return a.id < b.id; });
   objects_.swap(next);
 }

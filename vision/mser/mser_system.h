@@ -21,8 +21,17 @@
 // components; those of at least `min_object_area` of the image, filled with foreground to at
 // least `min_fill` of their box, are objects, linked over frames greedily by box overlap (IoU at
 // least `min_iou`) with a constant-velocity prediction, kept `keep_lost` frames when unseen, and
-// reported once seen `confirm_frames` frames (a new object is tentative before). Object modelling with MSER-pair hash votes (10.3.4) is not
-// built yet.
+// reported once seen `confirm_frames` frames (a new object is tentative before).
+//
+// Object models (10.3.4, object_model.h), with `recognise`: every object keeps its foreground
+// regions (centroid, second moments, mean colour, and the share of each region's boundary on
+// lines) from the frame it showed the most foreground in (within 10 %: the latest such frame),
+// so an object leaving the image is modelled before the border cut it. When an object that had
+// been reported (or recognised) ends (unseen for `keep_lost` frames), its model goes into a hash
+// table of the last `max_models` ended objects.
+// A new object is looked up in it in every frame while tentative: when the vote recognises one
+// (its features agreeing on a size and place), the new object takes that object's id back (a
+// re-entering object), its model leaves the table, and it is reported as `recognised`.
 #pragma once
 
 #include <cstdint>
@@ -33,6 +42,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "vision/mser/object_model.h"
 #include "vision/mser/region_tracker.h"
 #include "vision/mser/segmenter.h"
 
@@ -55,6 +65,10 @@ struct MserSystemParams {
   int confirm_frames = 3;          // an object is reported once seen this many frames running
   double min_iou = 0.25;
   int keep_lost = 5;
+  // Object models (10.3.4): re-entering objects recognised by their regions.
+  bool recognise = true;
+  int max_models = 50;             // ended objects kept, the oldest forgotten first
+  ObjectModelParams models;
 };
 
 struct ImageObject {
@@ -63,6 +77,7 @@ struct ImageObject {
   int area = 0;        // foreground pixels
   int age = 0, lost = 0;
   cv::Point2f velocity;  // of the box centre, px per frame
+  bool recognised = false;  // its id is an ended object's, recognised by its model
 };
 
 class MserSystem {
@@ -94,6 +109,8 @@ class MserSystem {
   // and the objects' boxes and ids.
   cv::Mat annotate(const cv::Mat& bgr) const;
   const MserSegmenter& segmenter() const { return seg_; }
+  // The models of ended objects, looked up when a new one appears.
+  const ObjectModels& object_models() const { return models_; }
 
  private:
   struct Entry {
@@ -116,6 +133,8 @@ class MserSystem {
   void classify();
   int best_entry(const std::vector<Entry>& model, const class KdTree2* tree, const Region& reg) const;
   void update_objects();
+  // Per box, the foreground regions of its component, as the object model sees them.
+  std::vector<std::vector<ModelRegion>> box_regions(const cv::Mat& components, const std::vector<int>& box_of_component) const;
 
   MserSystemParams p_;
   MserSegmenter seg_;
@@ -130,6 +149,13 @@ class MserSystem {
   int64_t frame_ = 0;
   int moved_background_ = 0, reshaped_background_ = 0;
   cv::Mat model_image_;  // CV_32FC3: the learned regions' mean colours, per pixel
+  ObjectModels models_;  // ended objects
+  std::vector<int64_t> model_order_;  // their ids, oldest first
+  struct ObjectView {
+    std::vector<ModelRegion> regions;
+    int area = 0;
+  };
+  std::map<int64_t, ObjectView> object_regions_;  // live objects: their fullest view's regions
 };
 
 }  // namespace vigil::vision::mser
