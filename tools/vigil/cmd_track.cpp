@@ -1,11 +1,11 @@
 // vigil track --source SPEC --pipeline planview|mser --out DIR [--frames N] [--no-video]
-// planview: runs the stereo plan-view system on a stereo frame source (render:, stereo: with a
-// calibration) and writes DIR/tracks.jsonl (map frame) and DIR/annotated.avi: the camera view
-// with the tracks, the foreground mask, and the plan-view occupancy and height maps.
-// mser: runs the colour MSER system (vision/mser) on the left image of any source (video:,
-// images:, render:, stereo:) and writes DIR/tracks.txt (MOTChallenge: frame, id, left, top,
-// width, height, 1, -1, -1, -1; frames from 1) and DIR/annotated.avi (segmentation, lines,
-// foreground, boxes).
+// On a calibrated source (render:, stereo: with a calibration) either system runs through the
+// vision::Tracker interface and writes DIR/tracks.jsonl (map frame) and DIR/annotated.avi (the
+// camera view with the tracks, and the system's own pictures: the foreground and plan-view maps,
+// or the MSER segmentation with its lines and foreground).
+// mser on an uncalibrated mono source (video:, images:): the colour MSER system (vision/mser)
+// in the image, DIR/tracks.txt (MOTChallenge: frame, id, left, top, width, height, 1, -1, -1,
+// -1; frames from 1) and DIR/annotated.avi (segmentation, lines, foreground, boxes).
 #include <unistd.h>
 
 #include <chrono>
@@ -21,6 +21,7 @@
 #include "tools/vigil/commands.h"
 #include "tools/vigil/plugin_search.h"
 #include "vision/mser/mser_system.h"
+#include "vision/mser/mser_tracker.h"
 #include "vision/planview_system.h"
 #include "vision/track_io.h"
 
@@ -119,12 +120,14 @@ void add_track_command(CLI::App& app) {
     wo.plugin_dirs = plugin_search_path();
     auto source = render::open_any_frame_source(o->source, wo);
     if (!source) throw Exit{report(source.error())};
-    if (o->pipeline == "mser") {
+    auto model = (*source)->camera_model();
+    // Without a calibrated camera (a plain video or image folder) the MSER system tracks in the
+    // image: MOTChallenge boxes.
+    if (o->pipeline == "mser" && !model) {
       run_mser(o->source, **source, o->out, o->frames, o->no_video, o->quiet);
       return;
     }
-    auto model = (*source)->camera_model();
-    if (!(*source)->is_stereo() || !model) {
+    if (o->pipeline == "planview" && (!(*source)->is_stereo() || !model)) {
       throw Exit{report(bad_input(o->source, 0, "--source",
                                   "the plan-view pipeline needs a calibrated stereo source with a pose (render:, or "
                                   "stereo:LEFT,RIGHT,CALIBRATION;disparity=sgbm); got " + (*source)->describe()))};
@@ -134,13 +137,24 @@ void add_track_command(CLI::App& app) {
       if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) camera_id = r->camera().id;
       else camera_id = "camera";
     }
-    vision::PlanViewSystemParams sp;
-    sp.plan.max_range = o->max_range;
-    sp.plan.cell_size = o->cell_size;
-    sp.background.learning_rate = static_cast<float>(o->learning_rate);
-    sp.tracking.camera = camera_id;
-    auto system = vision::PlanViewSystem::create(*model, sp);
-    if (!system) throw Exit{report(system.error())};
+    // A calibrated source: either system through the Tracker interface, map-frame tracks.
+    std::unique_ptr<vision::Tracker> system;
+    if (o->pipeline == "planview") {
+      vision::PlanViewSystemParams sp;
+      sp.plan.max_range = o->max_range;
+      sp.plan.cell_size = o->cell_size;
+      sp.background.learning_rate = static_cast<float>(o->learning_rate);
+      sp.tracking.camera = camera_id;
+      auto pv = vision::PlanViewSystem::create(*model, sp);
+      if (!pv) throw Exit{report(pv.error())};
+      system = std::make_unique<vision::PlanViewSystem>(std::move(*pv));
+    } else {
+      vision::mser::MserTrackerParams tp;
+      tp.camera = camera_id;
+      auto mt = vision::mser::MserTracker::create(*model, tp);
+      if (!mt) throw Exit{report(mt.error())};
+      system = std::make_unique<vision::mser::MserTracker>(std::move(*mt));
+    }
 
     const std::filesystem::path out = o->out;
     std::error_code ec;
@@ -196,9 +210,9 @@ void add_track_command(CLI::App& app) {
       throw Exit{report(bad_input((out / "annotated_last.png").string(), 0, "--out", "cannot write the image"))};
     if (Status s = writer.close(); !s) throw Exit{report(s.error())};
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    std::printf("%lld frames, %lld track records in %s/tracks.jsonl; pipeline %.2f ms/frame (foreground, plan view, "
-                "tracking), %.1f s wall with the source\n",
-                static_cast<long long>(n), static_cast<long long>(n_tracks), out.c_str(), n ? 1e3 * busy / n : 0.0, wall);
+    std::printf("%lld frames, %lld track records in %s/tracks.jsonl; %s pipeline %.2f ms/frame, %.1f s wall with the source\n",
+                static_cast<long long>(n), static_cast<long long>(n_tracks), out.c_str(), std::string(system->name()).c_str(),
+                n ? 1e3 * busy / n : 0.0, wall);
   });
 }
 

@@ -254,18 +254,57 @@ void MserSystem::update_objects() {
     cv::Mat cc, stats, centroids;
     const int n = cv::connectedComponentsWithStats(closed, cc, stats, centroids, 8, CV_32S);
     const double min_area = p_.min_object_area * static_cast<double>(fg_.total());
+    // Which foreground regions are still: tracked for a while and not moving.
+    std::vector<char> still(seg_out_.regions.size(), 0);
+    if (p_.split_still) {
+      for (const RegionTrack& t : tracker_.tracks())
+        if (t.region >= 0 && t.lost == 0 && t.age >= p_.still_age && cv::norm(t.velocity) < p_.still_speed) still[t.region] = 1;
+    }
     std::vector<int> box_of(n, -1);  // component -> box
+    int labels = n;
     for (int i = 1; i < n; ++i) {
       const int area = stats.at<int>(i, cv::CC_STAT_AREA);
       if (area < min_area) continue;
       const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                          stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
-      // Foreground (before closing) within the component's box.
-      const int fg_px = cv::countNonZero(fg_(box) & (cc(box) == i));
+      // Foreground (before closing) within the component, still and moving.
+      int fg_px = 0, still_px = 0;
+      cv::Rect still_box, moving_box;
+      for (int y = box.y; y < box.y + box.height; ++y) {
+        const int32_t* c = cc.ptr<int32_t>(y);
+        const uint8_t* f = fg_.ptr<uint8_t>(y);
+        const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+        for (int x = box.x; x < box.x + box.width; ++x) {
+          if (c[x] != i || !f[x]) continue;
+          ++fg_px;
+          cv::Rect& b = still[l[x]] ? still_box : moving_box;
+          b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+          still_px += still[l[x]];
+        }
+      }
+      // Something still beside something moving, each an object's size (a bag just put down
+      // beside the person walking off, a walker passing in front of a parked robot): two objects.
+      if (still_px >= min_area && fg_px - still_px >= min_area) {
+        const int part = labels++;
+        box_of.push_back(-1);
+        for (int y = still_box.y; y < still_box.y + still_box.height; ++y) {
+          int32_t* c = cc.ptr<int32_t>(y);
+          const uint8_t* f = fg_.ptr<uint8_t>(y);
+          const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+          for (int x = still_box.x; x < still_box.x + still_box.width; ++x)
+            if (c[x] == i && f[x] && still[l[x]]) c[x] = part;
+        }
+        for (const auto& [b, px, label] : {std::tuple{moving_box, fg_px - still_px, i}, std::tuple{still_box, still_px, part}}) {
+          if (px < p_.min_fill * b.area()) continue;
+          box_of[label] = static_cast<int>(boxes.size());
+          boxes.push_back(b);
+          areas.push_back(px);
+        }
+        continue;
+      }
       if (fg_px < p_.min_fill * box.area()) continue;
       box_of[i] = static_cast<int>(boxes.size());
-      boxes.push_back({stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP), stats.at<int>(i, cv::CC_STAT_WIDTH),
-                       stats.at<int>(i, cv::CC_STAT_HEIGHT)});
+      boxes.push_back(box);
       areas.push_back(area);
     }
     if (p_.recognise && !boxes.empty()) regions_of_box = box_regions(cc, box_of);

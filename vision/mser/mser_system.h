@@ -21,7 +21,9 @@
 // components; those of at least `min_object_area` of the image, filled with foreground to at
 // least `min_fill` of their box, are objects, linked over frames greedily by box overlap (IoU at
 // least `min_iou`) with a constant-velocity prediction, kept `keep_lost` frames when unseen, and
-// reported once seen `confirm_frames` frames (a new object is tentative before).
+// reported once seen `confirm_frames` frames (a new object is tentative before). A component
+// holding both still foreground regions and moving ones, each of an object's size, is split in
+// two (a bag just put down beside its owner walking off; a walker passing a parked robot).
 //
 // Object models (10.3.4, object_model.h), with `recognise`: every object keeps its foreground
 // regions (centroid, second moments, mean colour, and the share of each region's boundary on
@@ -58,12 +60,16 @@ struct MserSystemParams {
   double bg_size_ratio = 1.6;
   double bg_colour = 25;
   double adapt = 0.05;
-  int absorb_frames = 300;
+  int absorb_frames = 1800;  // 2 min at 15 fps: a bag left in view stays foreground for the rules
   int close_px = 7;
   double min_object_area = 0.002;  // of the image
-  double min_fill = 0.4;           // foreground pixels over box area (scattered specks are not objects)
+  double min_fill = 0.25;          // foreground pixels over box area (scattered specks are not objects)
   int confirm_frames = 3;          // an object is reported once seen this many frames running
   double min_iou = 0.25;
+  // A component with still foreground regions (tracked `still_age` frames, moving under
+  // `still_speed` px a frame) and moving ones, each at least min_object_area, is two objects.
+  bool split_still = true;
+  int still_age = 5;
   int keep_lost = 5;
   // Object models (10.3.4): re-entering objects recognised by their regions.
   bool recognise = true;

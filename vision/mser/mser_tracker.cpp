@@ -29,14 +29,33 @@ Result<MserTracker> MserTracker::create(const StereoCameraModel& camera, const M
 void MserTracker::reset() {
   system_.reset();
   history_.clear();
+  alias_.clear();
   id_offset_ = max_id_;
 }
 
 bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {
   const auto& k = camera_.intrinsics();
-  if (box.y + box.height >= k.height) return false;  // the feet are cut off by the image's edge
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
+  if (box.y + box.height >= k.height) {
+    // The feet are cut off by the image's edge. A tall box with its top in view is taken for a
+    // person of `cut_person_height`: the ray through the top meets that height above the
+    // footprint's centre.
+    if (!(p_.cut_person_height > 0) || box.y <= 0 || box.height < p_.cut_min_aspect * box.width) return false;
+    const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
+    const double dz = p_.cut_person_height - c.z();
+    if (std::abs(top_dir.z()) < 1e-9 || dz / top_dir.z() <= 0) return false;
+    const Eigen::Vector3d head = c + (dz / top_dir.z()) * top_dir;
+    const double dist = std::hypot(head.x() - c.x(), head.y() - c.y());
+    if (!(dist > 1e-6) || dist > p_.max_range) return false;
+    const double depth = (camera_.optical_from_map() * head).z();
+    if (!(depth > 0)) return false;
+    *x = head.x();
+    *y = head.y();
+    *width = box.width * depth / k.fx;
+    *height = p_.cut_person_height;
+    return std::isfinite(*x) && std::isfinite(*y);
+  }
   const double v_bottom = box.y + box.height - 0.5;
   const Eigen::Vector3d foot_dir = camera_.back_project_map(u, v_bottom, 1.0) - c;
   if (!(foot_dir.z() < -1e-9)) return false;  // at or above the horizon
@@ -85,8 +104,30 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   for (const ImageObject& o : system_.objects()) {
     double x, y, w, h;
     if (!box_to_map(o.box, &x, &y, &w, &h)) continue;
-    const int64_t id = o.id + id_offset_;
-    max_id_ = std::max(max_id_, id);
+    const int64_t sys_id = o.id + id_offset_;
+    max_id_ = std::max(max_id_, sys_id);
+    // A new object where a bag lies (held, or still seen: the bag's image split in two) is that
+    // bag.
+    if (!history_.count(sys_id) && !alias_.count(sys_id)) {
+      for (const auto& [hid, hh] : history_) {
+        if (hh.cls != TrackClass::kBag || hh.frames < p_.hold_min_frames) continue;
+        if ((frame.stamp_ns - hh.stamp_ns) * 1e-9 <= p_.hold_time && std::hypot(hh.x - x, hh.y - y) <= p_.hold_match) {
+          alias_[sys_id] = hid;
+          break;
+        }
+      }
+    }
+    auto al = alias_.find(sys_id);
+    // The alias lasts while the object stays at the bag's place (not a walker who stood by it).
+    if (al != alias_.end()) {
+      const auto h = history_.find(al->second);
+      if (h == history_.end() || std::hypot(h->second.x - x, h->second.y - y) > p_.hold_match) {
+        alias_.erase(al);
+        al = alias_.end();
+      }
+    }
+    const int64_t id = al != alias_.end() ? al->second : sys_id;
+    if (next.count(id)) continue;  // two objects claiming one held bag: the first keeps it
     History hist;
     if (auto it = history_.find(id); it != history_.end()) {
       hist = it->second;
@@ -102,10 +143,14 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;
+    hist.width = w;
+    hist.height = h;
+    ++hist.frames;
     TrackClass cls = TrackClass::kUnknown;
     double best = -1;
     for (const auto& [c, v] : hist.votes)  // std::map: ties go to the first class in order
       if (v > best) best = v, cls = c;
+    hist.cls = cls;
     next[id] = hist;
     Track t;
     t.stamp_ns = frame.stamp_ns;
@@ -122,9 +167,33 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     t.measured = true;
     out.push_back(std::move(t));
   }
-  // Objects unseen this frame keep their history while the system still looks for them.
-  for (auto& [id, hist] : history_)
-    if (!next.count(id) && (frame.stamp_ns - hist.stamp_ns) * 1e-9 < 2.0) next[id] = hist;
+  // Objects unseen this frame keep their history for a while; a still bag is held where it
+  // was (not measured: a walker in front hides it, or its blob merged with theirs).
+  for (auto& [id, hist] : history_) {
+    if (next.count(id)) continue;
+    const double unseen = (frame.stamp_ns - hist.stamp_ns) * 1e-9;
+    if (unseen >= std::max(2.0, p_.hold_time)) continue;
+    next[id] = hist;
+    if (hist.cls != TrackClass::kBag || hist.frames < p_.hold_min_frames || unseen > p_.hold_time ||
+        std::hypot(hist.vx, hist.vy) > p_.hold_speed)
+      continue;
+    bool taken_over = false;  // a bag reported at its place now is it, or hides it
+    for (const Track& o : out) taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match);
+    if (taken_over) continue;
+    Track t;
+    t.stamp_ns = frame.stamp_ns;
+    t.camera = p_.camera;
+    t.id = static_cast<int>(id);
+    t.cls = hist.cls;
+    t.x = hist.x;
+    t.y = hist.y;
+    t.width = hist.width;
+    t.height = hist.height;
+    t.confidence = 0.3;
+    t.measured = false;
+    out.push_back(std::move(t));
+  }
+  std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });
   history_.swap(next);
   return out;
 }

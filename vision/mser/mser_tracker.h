@@ -7,10 +7,13 @@
 // meets the floor (z = 0) at the near side of the footprint, and the centre lies half a width
 // further along the line of sight. The object's depth along the optical axis gives its width
 // (box width x depth / fx) and its height (the ray through the box's top, at the footprint's
-// distance). An object whose box touches the image's bottom edge, or whose foot ray does not
-// meet the floor within `max_range`, has no floor contact in view and is not reported. The
+// distance). An object whose box touches the image's bottom edge has no floor contact in view:
+// a tall box (a person close to the camera) is placed by its top at a person's height
+// (`cut_person_height`), anything else is not reported, nor is an object whose foot ray does
+// not meet the floor within `max_range`. The
 // class comes from height and width with the plan-view tracker's classifier (person, bag,
 // robot, unknown), voted over the track's frames. Velocity: the footprint's motion, smoothed.
+// A still bag unseen for a moment is held at its place (`hold_time`, Track::measured false).
 #pragma once
 
 #include <map>
@@ -29,8 +32,19 @@ struct MserTrackerParams {
   MserSystemParams system;
   ClassifierParams classes;
   double max_range = 12;         // m from the camera to the foot point
+  // Feet cut off by the image's bottom edge: a box at least `cut_min_aspect` times as tall as
+  // wide is placed as a person this tall (m) by its top; 0: not placed.
+  double cut_person_height = 1.7;
+  double cut_min_aspect = 1.2;
   double velocity_smoothing = 0.3;  // weight of the newest velocity measurement
-  double class_vote_decay = 0.95;   // per frame
+  // A still bag that goes unseen (hidden by someone in front, or merged with them in the
+  // image) is held at its place for this long, not measured, as the plan-view tracker holds
+  // occluded tracks; slower than hold_speed (m/s) counts as still.
+  double hold_time = 3.0;
+  double hold_speed = 0.3;
+  double hold_match = 0.5;  // m: a new object this close to a held bag is that bag
+  int hold_min_frames = 3;  // a bag measured on fewer frames (a carried bag glimpsed) is not held
+  double class_vote_decay = 0.99;   // per frame: a memory of about 100 frames, as the plan-view tracker's
   Status validate() const;
 };
 
@@ -53,13 +67,16 @@ class MserTracker : public Tracker {
   MserTracker(const StereoCameraModel& camera, const MserTrackerParams& p) : camera_(camera), p_(p), system_(p.system) {}
   struct History {
     int64_t stamp_ns = 0;
-    double x = 0, y = 0, vx = 0, vy = 0;
+    double x = 0, y = 0, vx = 0, vy = 0, width = 0, height = 0;
+    TrackClass cls = TrackClass::kUnknown;
+    int frames = 0;  // measured on
     std::map<TrackClass, double> votes;
   };
   StereoCameraModel camera_;
   MserTrackerParams p_;
   MserSystem system_;
   std::map<int64_t, History> history_;
+  std::map<int64_t, int64_t> alias_;  // the system's object id -> the track id it continues
   int64_t id_offset_ = 0;  // ids after a reset continue above the last
   int64_t max_id_ = 0;
   int64_t last_stamp_ = INT64_MIN;
