@@ -23,6 +23,45 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? static_cast<double>(inter) / uni : 0.0;
 }
 
+// The box of a component's foreground pixels (label `id` in `cc`) without thin tails at its
+// top and bottom: rows with fewer than `thin` of the typical row's pixels (a grout line the
+// feet stand on, bled into the trousers' region; a strip of something far behind the head).
+cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin) {
+  std::vector<int> row(box.height, 0);
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* f = fg.ptr<uint8_t>(y);
+    for (int x = box.x; x < box.x + box.width; ++x) row[y - box.y] += c[x] == id && f[x];
+  }
+  // The typical row: the width of the row the median pixel lies in, rows sorted by width (a
+  // long thin tail has many rows but few pixels).
+  std::vector<int> nz;
+  int total = 0;
+  for (int v : row)
+    if (v > 0) nz.push_back(v), total += v;
+  if (nz.empty()) return box;
+  std::sort(nz.begin(), nz.end());
+  int typical = nz.back(), acc = 0;
+  for (int v : nz)
+    if ((acc += v) * 2 >= total) {
+      typical = v;
+      break;
+    }
+  const double min_row = thin * typical;
+  int top = 0, bottom = box.height - 1;
+  while (top < bottom && row[top] < min_row) ++top;
+  while (bottom > top && row[bottom] < min_row) --bottom;
+  int x0 = box.x + box.width, x1 = box.x - 1;
+  for (int y = box.y + top; y <= box.y + bottom; ++y) {
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* f = fg.ptr<uint8_t>(y);
+    for (int x = box.x; x < box.x + box.width; ++x)
+      if (c[x] == id && f[x]) x0 = std::min(x0, x), x1 = std::max(x1, x);
+  }
+  if (x1 < x0) return box;
+  return cv::Rect(x0, box.y + top, x1 - x0 + 1, bottom - top + 1);
+}
+
 }  // namespace
 
 MserSystem::MserSystem(MserSystemParams params)
@@ -54,6 +93,7 @@ bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
     TrackInfo& t = info_[id];
     if (t.seen > 0) t.moved += cv::norm(seg_out_.regions[r].centroid - t.last);
     t.last = seg_out_.regions[r].centroid;
+    t.recent[t.seen % t.recent.size()] = t.last;
     ++t.seen;
   }
   ++frame_;
@@ -257,8 +297,16 @@ void MserSystem::update_objects() {
     // Which foreground regions are still: tracked for a while and not moving.
     std::vector<char> still(seg_out_.regions.size(), 0);
     if (p_.split_still) {
-      for (const RegionTrack& t : tracker_.tracks())
-        if (t.region >= 0 && t.lost == 0 && t.age >= p_.still_age && cv::norm(t.velocity) < p_.still_speed) still[t.region] = 1;
+      const int age = std::clamp(p_.still_age, 1, 31);
+      for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
+        const int64_t id = region_ids_[r];
+        if (id <= 0) continue;
+        const auto it = info_.find(id);
+        if (it == info_.end() || it->second.seen <= age) continue;
+        const TrackInfo& t = it->second;
+        const cv::Point2f then = t.recent[(t.seen - 1 - age) % t.recent.size()];
+        still[r] = cv::norm(t.last - then) < p_.split_still_speed * age;
+      }
     }
     std::vector<int> box_of(n, -1);  // component -> box
     int labels = n;
@@ -294,17 +342,20 @@ void MserSystem::update_objects() {
           for (int x = still_box.x; x < still_box.x + still_box.width; ++x)
             if (c[x] == i && f[x] && still[l[x]]) c[x] = part;
         }
-        for (const auto& [b, px, label] : {std::tuple{moving_box, fg_px - still_px, i}, std::tuple{still_box, still_px, part}}) {
-          if (px < p_.min_fill * b.area()) continue;
+        for (const auto& [b, label] : {std::pair{moving_box, i}, std::pair{still_box, part}}) {
+          const cv::Rect t = trimmed_box(cc, fg_, label, b, p_.thin_row);
+          const int px = cv::countNonZero(fg_(t) & (cc(t) == label));
+          if (px < p_.min_fill * t.area()) continue;
           box_of[label] = static_cast<int>(boxes.size());
-          boxes.push_back(b);
+          boxes.push_back(t);
           areas.push_back(px);
         }
         continue;
       }
-      if (fg_px < p_.min_fill * box.area()) continue;
+      const cv::Rect t = trimmed_box(cc, fg_, i, box, p_.thin_row);
+      if (cv::countNonZero(fg_(t) & (cc(t) == i)) < p_.min_fill * t.area()) continue;
       box_of[i] = static_cast<int>(boxes.size());
-      boxes.push_back(box);
+      boxes.push_back(t);
       areas.push_back(area);
     }
     if (p_.recognise && !boxes.empty()) regions_of_box = box_regions(cc, box_of);

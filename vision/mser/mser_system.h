@@ -36,6 +36,7 @@
 // re-entering object), its model leaves the table, and it is reported as `recognised`.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -66,10 +67,16 @@ struct MserSystemParams {
   double min_fill = 0.25;          // foreground pixels over box area (scattered specks are not objects)
   int confirm_frames = 3;          // an object is reported once seen this many frames running
   double min_iou = 0.25;
-  // A component with still foreground regions (tracked `still_age` frames, moving under
-  // `still_speed` px a frame) and moving ones, each at least min_object_area, is two objects.
+  // A component with still foreground regions (their centroid within `split_still_speed` px a
+  // frame of where it was `still_age` frames ago, at most 32: a thing put down does not move at
+  // all, a walker coming towards the camera moves slowly in the image) and moving ones, each at
+  // least min_object_area, is two objects.
   bool split_still = true;
-  int still_age = 5;
+  // An object's box leaves out rows at its top and bottom with fewer foreground pixels than
+  // this fraction of its median row (thin tails: a floor line bled into the feet's region).
+  double thin_row = 0.12;
+  int still_age = 10;
+  double split_still_speed = 0.2;
   int keep_lost = 5;
   // Object models (10.3.4): re-entering objects recognised by their regions.
   bool recognise = true;
@@ -134,6 +141,7 @@ class MserSystem {
     bool background = false;
     int still_foreground = 0;
     cv::Point2f last;
+    std::array<cv::Point2f, 32> recent;  // centroids of the last frames seen (ring)
   };
   void learn();
   void classify();

@@ -10,8 +10,8 @@ namespace vigil::vision::mser {
 
 Status MserTrackerParams::validate() const {
   if (!(max_range > 0) || !std::isfinite(max_range)) return bad_input("", 0, "max_range", "must be a positive distance (m)");
-  if (!(velocity_smoothing > 0 && velocity_smoothing <= 1))
-    return bad_input("", 0, "velocity_smoothing", "must be in (0, 1]");
+  if (!(velocity_window > 0) || !std::isfinite(velocity_window))
+    return bad_input("", 0, "velocity_window", "must be a positive time (s)");
   if (!(class_vote_decay > 0 && class_vote_decay <= 1)) return bad_input("", 0, "class_vote_decay", "must be in (0, 1]");
   if (system.warmup_frames < 0 || system.learn_frames < 1)
     return bad_input("", 0, "learn_frames", "needs at least one learning frame and no negative warm-up");
@@ -129,14 +129,17 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     const int64_t id = al != alias_.end() ? al->second : sys_id;
     if (next.count(id)) continue;  // two objects claiming one held bag: the first keeps it
     History hist;
-    if (auto it = history_.find(id); it != history_.end()) {
-      hist = it->second;
-      const double gap = (frame.stamp_ns - hist.stamp_ns) * 1e-9;
-      if (gap > 0) {
-        const double a = p_.velocity_smoothing;
-        hist.vx = (1 - a) * hist.vx + a * (x - hist.x) / gap;
-        hist.vy = (1 - a) * hist.vy + a * (y - hist.y) / gap;
-      }
+    if (auto it = history_.find(id); it != history_.end()) hist = it->second;
+    // Velocity: the footprint's displacement over the last `velocity_window` seconds (a pixel
+    // of the foot row is several centimetres, so frame-to-frame differences are mostly noise).
+    hist.trail.push_back({frame.stamp_ns, x, y});
+    while (hist.trail.size() > 2 && (frame.stamp_ns - hist.trail[1].stamp_ns) * 1e-9 >= p_.velocity_window)
+      hist.trail.pop_front();
+    {
+      const auto& first = hist.trail.front();
+      const double span = (frame.stamp_ns - first.stamp_ns) * 1e-9;
+      hist.vx = span > 0 ? (x - first.x) / span : 0.0;
+      hist.vy = span > 0 ? (y - first.y) / span : 0.0;
     }
     for (auto& [c, v] : hist.votes) v *= p_.class_vote_decay;
     hist.votes[classify_track(h, w, p_.classes)] += 1.0;
@@ -145,6 +148,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     hist.y = y;
     hist.width = w;
     hist.height = h;
+    hist.box = o.box;
     ++hist.frames;
     TrackClass cls = TrackClass::kUnknown;
     double best = -1;
@@ -177,6 +181,11 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     if (hist.cls != TrackClass::kBag || hist.frames < p_.hold_min_frames || unseen > p_.hold_time ||
         std::hypot(hist.vx, hist.vy) > p_.hold_speed)
       continue;
+    // Held only while something in the image covers where it was: a clear view of an empty
+    // place means it has gone.
+    bool covered = false;
+    for (const ImageObject& o : system_.objects()) covered = covered || (o.box & hist.box).area() > 0;
+    if (!covered) continue;
     bool taken_over = false;  // a bag reported at its place now is it, or hides it
     for (const Track& o : out) taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match);
     if (taken_over) continue;

@@ -12,10 +12,11 @@
 // (`cut_person_height`), anything else is not reported, nor is an object whose foot ray does
 // not meet the floor within `max_range`. The
 // class comes from height and width with the plan-view tracker's classifier (person, bag,
-// robot, unknown), voted over the track's frames. Velocity: the footprint's motion, smoothed.
+// robot, unknown), voted over the track's frames. Velocity: the footprint's displacement over the last second.
 // A still bag unseen for a moment is held at its place (`hold_time`, Track::measured false).
 #pragma once
 
+#include <deque>
 #include <map>
 #include <string>
 #include <vector>
@@ -36,10 +37,11 @@ struct MserTrackerParams {
   // wide is placed as a person this tall (m) by its top; 0: not placed.
   double cut_person_height = 1.7;
   double cut_min_aspect = 1.2;
-  double velocity_smoothing = 0.3;  // weight of the newest velocity measurement
-  // A still bag that goes unseen (hidden by someone in front, or merged with them in the
-  // image) is held at its place for this long, not measured, as the plan-view tracker holds
-  // occluded tracks; slower than hold_speed (m/s) counts as still.
+  double velocity_window = 1.0;  // s: velocity is the displacement over this window
+  // A still bag that goes unseen while another object covers its place in the image (someone
+  // in front, or beside it and merged with it) is held at its place for up to this long, not
+  // measured, as the plan-view tracker holds occluded tracks; slower than hold_speed (m/s)
+  // counts as still. An uncovered empty place ends it at once.
   double hold_time = 3.0;
   double hold_speed = 0.3;
   double hold_match = 0.5;  // m: a new object this close to a held bag is that bag
@@ -65,11 +67,17 @@ class MserTracker : public Tracker {
 
  private:
   MserTracker(const StereoCameraModel& camera, const MserTrackerParams& p) : camera_(camera), p_(p), system_(p.system) {}
+  struct Fix {
+    int64_t stamp_ns = 0;
+    double x = 0, y = 0;
+  };
   struct History {
+    std::deque<Fix> trail;  // the footprint over the velocity window
     int64_t stamp_ns = 0;
     double x = 0, y = 0, vx = 0, vy = 0, width = 0, height = 0;
     TrackClass cls = TrackClass::kUnknown;
     int frames = 0;  // measured on
+    cv::Rect box;    // in the image, when last measured
     std::map<TrackClass, double> votes;
   };
   StereoCameraModel camera_;
