@@ -311,11 +311,29 @@ TEST(RenderedEvents, MserTracksAreTheSameBytesTwice) {
   fs::remove_all(b);
 }
 
-TEST(RunEvents, MarkedObjectsAreTheScenariosUnauthorisedOnes) {
+// The operator's marking: dis_lab_unauthorised marks the lab table as a handling zone, so the
+// rules take the zone from the floor plan and read no object from the scenario; without zones,
+// the scenario's unauthorised objects are the marked ones, where they lie at the start.
+TEST(RunEvents, HandlingZonesComeFromTheFloorPlanAndReplaceMarkedObjects) {
   auto sc = load_scenario(test::source_dir() / "scenarios" / "dis_lab_unauthorised.yaml");
   ASSERT_TRUE(sc.ok()) << sc.error().str();
+  ASSERT_EQ(sc->rules.handling_zones, std::vector<std::string>{"lab_table"});
   WorldOptions wo;
   wo.plugins = builtin_plugin_registry();
+  {
+    auto world = World::create(*sc, wo);
+    ASSERT_TRUE(world.ok()) << world.error().str();
+    const vision::ActivityRuleParams p = activity_rule_params(**world);
+    EXPECT_TRUE(p.watched.empty());
+    ASSERT_EQ(p.handling_zones.size(), 1u);
+    EXPECT_EQ(p.handling_zones[0].name, "lab_table");
+    EXPECT_NEAR(p.handling_zones[0].x, 12.0, 1e-9);
+    EXPECT_NEAR(p.handling_zones[0].size_x, 1.8, 1e-9);
+    EXPECT_TRUE(p.handling_zones[0].contains(12.6, 8.55, 0.0)) << "the laptop lies on it";
+    EXPECT_FALSE(p.handling_zones[0].contains(12.0, 6.3, 0.3)) << "the lab's centre is not on the table";
+    EXPECT_DOUBLE_EQ(p.left_bag_time, sc->rules.left_bag_time);
+  }
+  sc->rules.handling_zones.clear();
   auto world = World::create(*sc, wo);
   ASSERT_TRUE(world.ok()) << world.error().str();
   const vision::ActivityRuleParams p = activity_rule_params(**world);
@@ -323,7 +341,6 @@ TEST(RunEvents, MarkedObjectsAreTheScenariosUnauthorisedOnes) {
   EXPECT_EQ(p.watched[0].name, "laptop");
   EXPECT_NEAR(p.watched[0].position.x, 12.6, 1e-9);
   EXPECT_GT(p.watched[0].position.z, 0.75);  // on the table
-  EXPECT_DOUBLE_EQ(p.left_bag_time, sc->rules.left_bag_time);
 }
 
 }  // namespace

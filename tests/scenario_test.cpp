@@ -384,6 +384,18 @@ TEST_F(ScenarioTest, StrayTokensThatHangYamlCppAreErrors) {
   expect_error("map: lab.floorplan.yaml\nduration: 5\n---\n,\n", 0, "", "YAML");
 }
 
+// rules.handling_zones: the operator marks furniture of the map; anything else names the item.
+TEST_F(ScenarioTest, HandlingZonesNameFurnitureOfTheMap) {
+  std::string t = replace_once(kGood, "  exchange_distance: 1.0\n", "  exchange_distance: 1.0\n  handling_zones: [desk]\n");
+  auto r = parse(t);
+  ASSERT_TRUE(r.ok()) << r.error().str();
+  EXPECT_EQ(r->rules.handling_zones, std::vector<std::string>{"desk"});
+  t = replace_once(kGood, "  exchange_distance: 1.0\n", "  exchange_distance: 1.0\n  handling_zones: [desk, bench]\n");
+  expect_error(t, line_of(t, "handling_zones"), "rules.handling_zones[1]", "'bench' is not a piece of furniture of the map");
+  t = replace_once(kGood, "  exchange_distance: 1.0\n", "  exchange_distance: 1.0\n  handling_zones: desk\n");
+  expect_error(t, line_of(t, "handling_zones"), "rules.handling_zones", "expected a list of furniture names");
+}
+
 TEST_F(ScenarioTest, UnknownKeysAtEveryLevelListTheAllowedOnes) {
   std::string t = replace_once(kGood, "seed: 42\n", "seed: 42\nspeed_up: 2\n");
   expect_error(t, line_of(t, "speed_up"), "speed_up", "unknown key (allowed: name, map, duration");

@@ -49,6 +49,13 @@ Status ActivityRuleParams::validate() const {
     if (!std::isfinite(w.position.x) || !std::isfinite(w.position.y) || !std::isfinite(w.position.z))
       return bad_input("", 0, key + ".position", "must be finite");
   }
+  if (!(zone_margin >= 0) || !std::isfinite(zone_margin)) return bad_input("", 0, "zone_margin", "must be >= 0 (m)");
+  for (size_t i = 0; i < handling_zones.size(); ++i) {
+    const auto& z = handling_zones[i];
+    if (!std::isfinite(z.x) || !std::isfinite(z.y) || !std::isfinite(z.yaw) || !(z.size_x > 0) || !(z.size_y > 0) ||
+        !std::isfinite(z.size_x) || !std::isfinite(z.size_y))
+      return bad_input("", 0, "handling_zones[" + std::to_string(i) + "]", "needs a finite place and positive sizes");
+  }
   return Status::Ok();
 }
 
@@ -91,10 +98,13 @@ Event ActivityRules::make_event(EventKind kind, int64_t now, const Point3& where
   e.kind = kind;
   e.stamp_ns = now;
   e.camera = camera_;
-  e.map_position = where;
+  // At the precision the event files and messages carry (0.1 mm), so that an event read back
+  // is the event written (its text included).
+  auto r4 = [](double v) { return std::round(v * 1e4) / 1e4; };
+  e.map_position = {r4(where.x), r4(where.y), r4(where.z)};
   if (model_) {
     const Eigen::Vector3d q = model_->optical_from_map() * Eigen::Vector3d(where.x, where.y, where.z);
-    e.camera_position = {q.x(), q.y(), q.z()};
+    e.camera_position = {r4(q.x()), r4(q.y()), r4(q.z())};
   }
   e.confidence = std::clamp(confidence, 0.0, 1.0);
   return e;
@@ -131,7 +141,8 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
       p.width = t.width > 0 ? t.width : 0.5;
       p.last_seen = stamp_ns;
       p.confidence = t.confidence;
-    } else if (t.cls == TrackClass::kBag && std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
+    } else if ((t.cls == TrackClass::kBag || (t.cls == TrackClass::kUnknown && in_handling_zone(t.x, t.y))) &&
+               std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
       bags.push_back(&t);
     }
   }
@@ -145,6 +156,7 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
   rule_left_bag(stamp_ns, &out);
   rule_taken(stamp_ns, dt, &out);
   rule_touch(stamp_ns, &out);
+  rule_zone_touch(stamp_ns, &out);
   events_.insert(events_.end(), out.begin(), out.end());
   return out;
 }
@@ -167,6 +179,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
     if (best < 0 && near_robot) continue;
     if (best < 0) {
       ObjectModel o;
+      o.key = next_model_key_++;
       o.x = t->x;
       o.y = t->y;
       o.first_seen = now;
@@ -223,7 +236,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
 
 void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
   for (ObjectModel& o : objects_) {
-    if (!o.confirmed || o.owner < 0 || o.left_event || o.taker >= 0) continue;
+    if (!o.confirmed || o.owner < 0 || o.left_event || o.taker >= 0 || in_handling_zone(o.x, o.y)) continue;
     const Person* owner = person(o.owner, now);
     const bool attended = owner && dist(owner->x, owner->y, o.x, o.y) <= p_.left_bag_distance;
     if (attended) {
@@ -244,7 +257,7 @@ void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
 void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out) {
   for (auto it = objects_.begin(); it != objects_.end();) {
     ObjectModel& o = *it;
-    if (!o.confirmed || o.last_seen == now) {
+    if (!o.confirmed || o.last_seen == now || in_handling_zone(o.x, o.y)) {
       ++it;
       continue;
     }
@@ -335,6 +348,55 @@ void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
   }
   // Visits of people no longer seen end.
   std::erase_if(visits_, [&](const auto& kv) { return !person(kv.first.first, now); });
+}
+
+bool HandlingZone::contains(double px, double py, double margin) const {
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double lx = c * (px - x) + s * (py - y), ly = -s * (px - x) + c * (py - y);
+  return std::abs(lx) <= 0.5 * size_x + margin && std::abs(ly) <= 0.5 * size_y + margin;
+}
+
+bool ActivityRules::in_handling_zone(double x, double y) const {
+  for (const HandlingZone& z : p_.handling_zones)
+    if (z.contains(x, y, p_.zone_margin)) return true;
+  return false;
+}
+
+void ActivityRules::rule_zone_touch(int64_t now, std::vector<Event>* out) {
+  if (p_.handling_zones.empty()) return;
+  auto in_zone = [&](const ObjectModel& o) { return in_handling_zone(o.x, o.y); };
+  for (const auto& [id, p] : people_) {
+    if (p.last_seen != now) continue;
+    const ObjectModel* nearest = nullptr;
+    double nd = std::numeric_limits<double>::infinity();
+    for (const ObjectModel& o : objects_) {
+      if (!o.confirmed || !in_zone(o)) continue;
+      const double d = dist(p.x, p.y, o.x, o.y);
+      if (d < nd) nd = d, nearest = &o;
+    }
+    if (!nearest || nd > p_.touch_distance) {
+      for (auto it = model_visits_.begin(); it != model_visits_.end();) {
+        bool clear = it->first.first == id;
+        for (const ObjectModel& o : objects_)
+          if (o.key == it->first.second) clear = clear && dist(p.x, p.y, o.x, o.y) > p_.touch_distance + 0.3;
+        it = clear ? model_visits_.erase(it) : std::next(it);
+      }
+      continue;
+    }
+    Visit& v = model_visits_.try_emplace({id, nearest->key}, Visit{now, false}).first->second;
+    if (v.reported || now - v.since < ns(p_.touch_time)) continue;
+    v.reported = true;
+    if (nearest->owner == id) continue;  // their own
+    bool marked = false;                 // the operator's mark covers it
+    for (const WatchedObject& w : p_.watched)
+      marked = marked || dist(w.position.x, w.position.y, nearest->x, nearest->y) <= p_.object_match_distance;
+    if (marked) continue;
+    Event e = make_event(EventKind::kUnauthorisedObject, now, {nearest->x, nearest->y, nearest->z}, p.confidence);
+    e.object_track = nearest->track;
+    e.people = {id};
+    out->push_back(e);
+  }
+  std::erase_if(model_visits_, [&](const auto& kv) { return !person(kv.first.first, now); });
 }
 
 }  // namespace vigil::vision

@@ -3,7 +3,8 @@
 // so they work behind any tracker (the plan-view tracker, the ground-truth sensor model, the
 // MSER tracker later).
 //
-// Object models. A bag-class track that stays still becomes an object model once seen for
+// Object models. A bag-class track (or, in a handling zone, an unknown one: a laptop on the
+// marked table) that stays still becomes an object model once seen for
 // object_confirm_time; models are kept by place, not by track id, so a tracker that loses a bag
 // and finds it again under a new id still has one object. When a model appears, the nearest
 // person within owner_distance becomes its owner (the chapter: "models will be generated for
@@ -23,6 +24,13 @@
 //  - unauthorised object: a person stays within touch_distance of a marked object (WatchedObject;
 //    the operator marks what may not be handled, as the laptop of the chapter's lab) for
 //    touch_time, and that object is the nearest marked one to them. Once per visit.
+//    In a handling zone (HandlingZone: the operator marks a table, not the objects), the objects
+//    are what the camera reports there: a person staying within touch_distance of an object
+//    model lying in the zone for touch_time, the nearest such model to them, raises it unless
+//    they own the model (the chapter: handling an object present at the start, or left by
+//    another, is an alert; handling what one brought is not). A marked object at the model's
+//    place is left to the rule above. Objects in a handling zone are judged by this rule only
+//    (no left bag or bag taken for a book put on the lab table).
 // Small objects on tables are part of the background to a plan-view tracker, which is why
 // handling them is judged against marked places rather than tracks.
 #pragma once
@@ -39,6 +47,15 @@
 #include "vision/track.h"
 
 namespace vigil::vision {
+
+// A place the operator has marked (a table): an object seen lying there may be handled only by
+// whoever put it there.
+struct HandlingZone {
+  std::string name;
+  double x = 0, y = 0, yaw = 0;    // centre and orientation (map frame)
+  double size_x = 0, size_y = 0;   // m
+  bool contains(double px, double py, double margin) const;
+};
 
 // An object the operator has marked: handling it raises "unauthorised object" unless authorised.
 struct WatchedObject {
@@ -67,6 +84,8 @@ struct ActivityRuleParams {
                                      // that robot (a far robot whose mast the camera does not resolve
                                      // looks like a bag): it does not start or confirm an object model
   std::vector<WatchedObject> watched;
+  std::vector<HandlingZone> handling_zones;
+  double zone_margin = 0.3;          // m around a zone that still counts as on it
   // Checks every value; the key names the parameter.
   Status validate() const;
 };
@@ -92,6 +111,7 @@ class ActivityRules {
   const std::vector<Event>& events() const { return events_; }
 
   struct ObjectModel {
+    uint64_t key = 0;              // unique over the run
     int track = -1;                // the last bag track matched to it
     double x = 0, y = 0, z = 0;    // its place (running mean) and height (m)
     int64_t first_seen = 0, last_seen = 0;
@@ -141,6 +161,10 @@ class ActivityRules {
   std::map<int, Person> people_;
   std::vector<ObjectModel> objects_;
   std::map<std::pair<int, size_t>, Visit> visits_;  // (person, watched index)
+  std::map<std::pair<int, uint64_t>, Visit> model_visits_;  // (person, object model key)
+  uint64_t next_model_key_ = 1;
+  void rule_zone_touch(int64_t now, std::vector<Event>* out);
+  bool in_handling_zone(double x, double y) const;
   std::vector<Event> events_;
   uint64_t next_event_id_ = 1;
 };

@@ -160,12 +160,22 @@ class ScenarioReader {
     if (grid_.width() <= 0 || grid_.height() <= 0) v.fail("map '" + path.string() + "' has no cells");
   }
 
-  // rules: {left_bag_distance, left_bag_time, exchange_distance}
+  // rules: {left_bag_distance, left_bag_time, exchange_distance, handling_zones: [furniture, ...]}
   void read_rules(const Value& v) {
-    const Mapping m = v.mapping({"left_bag_distance", "left_bag_time", "exchange_distance"});
+    const Mapping m = v.mapping({"left_bag_distance", "left_bag_time", "exchange_distance", "handling_zones"});
     if (auto x = m.get("left_bag_distance")) sc_.rules.left_bag_distance = x->positive(1e4);
     if (auto x = m.get("left_bag_time")) sc_.rules.left_bag_time = x->non_negative(1e7);
     if (auto x = m.get("exchange_distance")) sc_.rules.exchange_distance = x->positive(1e4);
+    if (auto x = m.get("handling_zones")) {
+      if (!x->is_sequence()) x->fail("expected a list of furniture names, e.g. [lab_table]");
+      for (const Value& item : x->items()) {
+        const std::string name = item.identifier();
+        bool known = false;
+        for (const auto& f : furniture_) known = known || f.name == name;
+        if (!known) item.fail("'" + name + "' is not a piece of furniture of the map");
+        sc_.rules.handling_zones.push_back(name);
+      }
+    }
   }
 
   // places: {name: [x, y], ...}, added to the map's places.

@@ -115,6 +115,9 @@ struct EventRuleSpec {
   double left_bag_distance = 3.0;  // m the owner must be from the bag...
   double left_bag_time = 5.0;      // ...for this many seconds
   double exchange_distance = 1.5;  // m: both people this close at a hand-over
+  // The operator's marking for the cameras' rules (not read by the ground truth): furniture whose
+  // objects may be handled only by whoever put them there (chapter 10.6.1, scenario 2).
+  std::vector<std::string> handling_zones;
 };
 
 // A scripted fault (issue 11): from `at` seconds a robot stops (its controller no longer runs,

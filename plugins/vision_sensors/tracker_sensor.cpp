@@ -152,6 +152,8 @@ TrackerKind mser_kind() {
     tp.system.min_object_area = p.number("min_object_area");
     tp.system.segmenter.use_lines = p.boolean("lines");
     tp.max_range = p.number("max_range");
+    for (const FloorplanFurniture& f : ctx.furniture)
+      tp.surfaces.push_back({f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y, f.height});
     auto t = vision::mser::MserTracker::create(ctx.model, tp);
     if (!t) return t.error();
     return std::unique_ptr<vision::Tracker>(std::make_unique<vision::mser::MserTracker>(std::move(*t)));

@@ -70,6 +70,13 @@ void register_vision_sensor(const std::string& name, Factory factory) {
 
 Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenario& scenario, render::CameraRig* rig) {
   std::unique_ptr<VisionSensorHost> host(new VisionSensorHost());
+  // The building's furniture (what a camera system may know of the floor plan: table tops).
+  std::vector<FloorplanFurniture> furniture;
+  if (!scenario.furniture.empty()) {
+    auto plan = load_floorplan(scenario.map);
+    if (!plan) return plan.error();
+    furniture = plan->furniture;
+  }
   for (size_t i = 0; i < scenario.cameras.size(); ++i) {
     const CameraSpec& cam = scenario.cameras[i];
     if (cam.plugin.empty()) continue;
@@ -88,6 +95,7 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
     ctx.camera = cam;
     ctx.model = render::camera_model(cam);
     ctx.scenario_file = scenario.file.string();
+    ctx.furniture = furniture;
     ctx.seed = Rng::stream(scenario.seed, "vision_sensor:" + cam.id).next();
     if (Status s = (*sensor)->configure(*params, ctx); !s) {
       Error e = s.error();
@@ -124,7 +132,14 @@ vision::ActivityRuleParams activity_rule_params(const World& world) {
   p.left_bag_distance = sc.rules.left_bag_distance;
   p.left_bag_time = sc.rules.left_bag_time;
   p.exchange_distance = sc.rules.exchange_distance;
+  for (const std::string& name : sc.rules.handling_zones)
+    for (const auto& f : world.furniture())
+      if (f.name == name) p.handling_zones.push_back({f.name, f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y});
+  // With handling zones marked, the rules judge the objects the cameras see there; otherwise
+  // the operator's marking of single objects (the scenario's authorised: false ones, where they
+  // are at the start) stands in, for camera systems that cannot see objects on a table.
   for (const auto& o : world.objects()) {
+    if (!p.handling_zones.empty()) break;
     if (o.spec.authorised || o.carrier >= 0 || !o.present) continue;
     p.watched.push_back({o.spec.id, {o.pose.x, o.pose.y, o.z + o.spec.size_z / 2}, false});
   }

@@ -27,6 +27,7 @@
 #include "vision/stereo_camera_model.h"
 #include "vision/track.h"
 #include "vision/track_io.h"
+#include "world/floorplan.h"
 #include "world/params.h"
 #include "world/runner.h"
 #include "world/scenario.h"
@@ -38,6 +39,7 @@ struct SensorContext {
   CameraSpec camera;                  // the camera the sensor is attached to
   vision::StereoCameraModel model;    // its stereo model (pose in the map frame)
   std::string scenario_file;
+  std::vector<FloorplanFurniture> furniture;  // the map's furniture (table tops objects may lie on)
   uint64_t seed = 0;                  // the sensor's own seed, derived from the run's
 };
 
@@ -61,9 +63,10 @@ Result<std::unique_ptr<VisionSensor>> create_vision_sensor(const std::string& na
 // Adds a sensor factory (used by the plan-view pipeline and by tests).
 void register_vision_sensor(const std::string& name, std::function<std::unique_ptr<VisionSensor>()> factory);
 
-// The activity-rule parameters of a scenario's cameras: its `rules` thresholds, and as marked
-// objects those the scenario declares not authorised, where they are when the run starts (the
-// operator's marking of what may not be handled).
+// The activity-rule parameters of a scenario's cameras: its `rules` thresholds and handling
+// zones (the furniture the operator marked). Without zones, as marked objects those the scenario
+// declares not authorised, where they are when the run starts (the operator's marking of what
+// may not be handled, for camera systems that cannot see objects on a table).
 vision::ActivityRuleParams activity_rule_params(const World& world);
 
 // Runs the vision sensors of a scenario's cameras during a run, at each camera's rate: frame

@@ -27,6 +27,7 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
 // top and bottom: rows with fewer than `thin` of the typical row's pixels (a grout line the
 // feet stand on, bled into the trousers' region; a strip of something far behind the head).
 cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin) {
+  if (!(thin > 0)) return box;
   std::vector<int> row(box.height, 0);
   for (int y = box.y; y < box.y + box.height; ++y) {
     const int32_t* c = cc.ptr<int32_t>(y);

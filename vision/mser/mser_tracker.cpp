@@ -28,38 +28,59 @@ Result<MserTracker> MserTracker::create(const StereoCameraModel& camera, const M
 
 void MserTracker::reset() {
   system_.reset();
+  start_objects_.clear();
+  start_found_ = false;
   history_.clear();
   alias_.clear();
   id_offset_ = max_id_;
 }
 
-bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {
+bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
-  if (box.y + box.height >= k.height) {
-    // The feet are cut off by the image's edge. A tall box with its top in view is taken for a
-    // person of `cut_person_height`: the ray through the top meets that height above the
-    // footprint's centre.
-    if (!(p_.cut_person_height > 0) || box.y <= 0 || box.height < p_.cut_min_aspect * box.width) return false;
-    const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
-    const double dz = p_.cut_person_height - c.z();
-    if (std::abs(top_dir.z()) < 1e-9 || dz / top_dir.z() <= 0) return false;
-    const Eigen::Vector3d head = c + (dz / top_dir.z()) * top_dir;
-    const double dist = std::hypot(head.x() - c.x(), head.y() - c.y());
-    if (!(dist > 1e-6) || dist > p_.max_range) return false;
-    const double depth = (camera_.optical_from_map() * head).z();
-    if (!(depth > 0)) return false;
-    *x = head.x();
-    *y = head.y();
-    *width = box.width * depth / k.fx;
-    *height = p_.cut_person_height;
-    return std::isfinite(*x) && std::isfinite(*y);
-  }
+  if (!(p_.cut_person_height > 0) || box.y <= 0 || box.height < p_.cut_min_aspect * box.width) return false;
+  const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
+  const double dz = p_.cut_person_height - c.z();
+  if (std::abs(top_dir.z()) < 1e-9 || dz / top_dir.z() <= 0) return false;
+  const Eigen::Vector3d head = c + (dz / top_dir.z()) * top_dir;
+  const double dist = std::hypot(head.x() - c.x(), head.y() - c.y());
+  if (!(dist > 1e-6) || dist > p_.max_range) return false;
+  const double depth = (camera_.optical_from_map() * head).z();
+  if (!(depth > 0)) return false;
+  out->x = head.x();
+  out->y = head.y();
+  out->width = box.width * depth / k.fx;
+  out->height = p_.cut_person_height;
+  out->own_height = p_.cut_person_height;
+  out->support = 0;
+  out->by_head = true;
+  return std::isfinite(out->x) && std::isfinite(out->y);
+}
+
+bool MserTracker::place(const cv::Rect& box, Placement* out) const {
+  const auto& k = camera_.intrinsics();
+  const Eigen::Vector3d c = camera_.pose().position;
+  const double u = box.x + 0.5 * (box.width - 1);
+  // The feet cut off by the image's edge: a tall box with its top in view is taken for a
+  // person of `cut_person_height`, the ray through the top meeting that height above the
+  // footprint's centre.
+  if (box.y + box.height >= k.height) return place_by_head(box, out);
   const double v_bottom = box.y + box.height - 0.5;
   const Eigen::Vector3d foot_dir = camera_.back_project_map(u, v_bottom, 1.0) - c;
   if (!(foot_dir.z() < -1e-9)) return false;  // at or above the horizon
-  const double t = -c.z() / foot_dir.z();
+  // What the bottom stands on: the first surface (a table top) the ray meets inside its
+  // outline, else the floor.
+  double support = 0, t = -c.z() / foot_dir.z();
+  for (const Surface& s : p_.surfaces) {
+    if (!(s.height > 0) || s.height >= c.z()) continue;
+    const double ts = (s.height - c.z()) / foot_dir.z();
+    if (!(ts > 0) || ts >= t) continue;
+    const Eigen::Vector3d q = c + ts * foot_dir;
+    const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
+    const double lx = cs * (q.x() - s.x) + sn * (q.y() - s.y), ly = -sn * (q.x() - s.x) + cs * (q.y() - s.y);
+    if (std::abs(lx) <= 0.5 * s.size_x && std::abs(ly) <= 0.5 * s.size_y) t = ts, support = s.height;
+  }
   const Eigen::Vector3d foot = c + t * foot_dir;
   const Eigen::Vector2d horiz(foot.x() - c.x(), foot.y() - c.y());
   const double dist = horiz.norm();
@@ -77,11 +98,58 @@ bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* 
   if (!(top_h > 1e-9)) return false;
   const double far = (centre - Eigen::Vector2d(c.x(), c.y())).norm();
   const double h = c.z() + top_dir.z() * far / top_h;
-  *x = centre.x();
-  *y = centre.y();
-  *width = w;
-  *height = std::max(0.0, h);
-  return std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*height);
+  // Taller above a table top than anything lying on it: someone standing behind the table,
+  // their legs hidden by it. Placed by the head, as a person whose feet are out of view.
+  if (support > 0 && h - support > p_.classes.bag_max_height) {
+    if (place_by_head(box, out)) return true;
+    // The head out of view as well: they stand where the table's edge hides them.
+    out->x = centre.x();
+    out->y = centre.y();
+    out->width = w;
+    out->height = out->own_height = p_.cut_person_height;
+    out->support = 0;
+    out->by_head = true;
+    return std::isfinite(out->x) && std::isfinite(out->y);
+  }
+  out->x = centre.x();
+  out->y = centre.y();
+  out->width = w;
+  out->height = std::max(support, h);
+  out->own_height = std::max(0.0, h - support);
+  out->support = support;
+  out->by_head = false;
+  return std::isfinite(out->x) && std::isfinite(out->y) && std::isfinite(out->height);
+}
+
+bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {
+  Placement pl;
+  if (!place(box, &pl)) return false;
+  *x = pl.x;
+  *y = pl.y;
+  *width = pl.width;
+  *height = pl.height;
+  return true;
+}
+
+void MserTracker::find_start_objects() {
+  // Background regions lying on a surface, the size of something one could pick up: the
+  // objects present when the model was learned (the chapter's "present at the start").
+  start_objects_.clear();
+  const double r3 = std::sqrt(3.0);  // a uniform patch's side is sqrt(3) times its second-moment width
+  for (const auto& [centroid, w2, h2, colour] : system_.background_model()) {
+    const cv::Rect box(cv::Point(static_cast<int>(std::lround(centroid.x - 0.5 * r3 * w2)),
+                                 static_cast<int>(std::lround(centroid.y - 0.5 * r3 * h2))),
+                       cv::Point(static_cast<int>(std::lround(centroid.x + 0.5 * r3 * w2)),
+                                 static_cast<int>(std::lround(centroid.y + 0.5 * r3 * h2))));
+    Placement pl;
+    if (!place(box, &pl) || pl.by_head || !(pl.support > 0)) continue;
+    if (pl.width < p_.start_min_width || pl.width >= p_.classes.robot_min_width || pl.own_height > p_.classes.bag_max_height)
+      continue;
+    bool near = false;  // the parts of one object (a laptop's screen and keys) are one
+    for (const StartObject& o : start_objects_) near = near || std::hypot(o.place.x - pl.x, o.place.y - pl.y) < p_.start_merge;
+    if (near) continue;
+    start_objects_.push_back({static_cast<int>(start_objects_.size()) + 1, pl});
+  }
 }
 
 Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
@@ -102,8 +170,9 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   std::vector<Track> out;
   std::map<int64_t, History> next;
   for (const ImageObject& o : system_.objects()) {
-    double x, y, w, h;
-    if (!box_to_map(o.box, &x, &y, &w, &h)) continue;
+    Placement pl;
+    if (!place(o.box, &pl)) continue;
+    const double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     const int64_t sys_id = o.id + id_offset_;
     max_id_ = std::max(max_id_, sys_id);
     // A new object where a bag lies (held, or still seen: the bag's image split in two) is that
@@ -142,7 +211,9 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       hist.vy = span > 0 ? (y - first.y) / span : 0.0;
     }
     for (auto& [c, v] : hist.votes) v *= p_.class_vote_decay;
-    hist.votes[classify_track(h, w, p_.classes)] += 1.0;
+    // Classed by its own height: a book on a table is as low as a bag on the floor.
+    hist.votes[pl.support > 0 ? classify_track(std::max(p_.classes.bag_min_height, pl.own_height), w, p_.classes)
+                              : classify_track(h, w, p_.classes)] += 1.0;
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;
@@ -200,6 +271,26 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     t.height = hist.height;
     t.confidence = 0.3;
     t.measured = false;
+    out.push_back(std::move(t));
+  }
+  // The objects present at the start, found once the background is learned, reported as
+  // lying where they were (a still bag each: the rules judge who handles them).
+  if (!system_.learning() && !start_found_) {
+    find_start_objects();
+    start_found_ = true;
+  }
+  for (const StartObject& o : start_objects_) {
+    Track t;
+    t.stamp_ns = frame.stamp_ns;
+    t.camera = p_.camera;
+    t.id = static_cast<int>(kStartIds + o.index);
+    t.cls = TrackClass::kBag;
+    t.x = o.place.x;
+    t.y = o.place.y;
+    t.width = o.place.width;
+    t.height = o.place.height;
+    t.confidence = 0.5;
+    t.measured = true;
     out.push_back(std::move(t));
   }
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });

@@ -14,6 +14,13 @@
 // class comes from height and width with the plan-view tracker's classifier (person, bag,
 // robot, unknown), voted over the track's frames. Velocity: the footprint's displacement over the last second.
 // A still bag unseen for a moment is held at its place (`hold_time`, Track::measured false).
+//
+// Surfaces (table tops from the floor plan): a box's bottom ray that meets a surface inside its
+// outline before the floor stands on it; classed by its height above the surface; taller than
+// a bag above it, it is someone behind the table, placed by the head. Once the background is
+// learned, the learned regions lying on a surface, 0.1 to 0.5 m wide, are the objects present
+// at the start: reported every frame as still bags (ids from kStartIds + 1), so the activity
+// rules give them no owner.
 #pragma once
 
 #include <deque>
@@ -28,11 +35,23 @@
 
 namespace vigil::vision::mser {
 
+// A horizontal surface objects can lie on (a table top, from the building's floor plan).
+struct Surface {
+  double x = 0, y = 0, yaw = 0;   // centre and orientation (map frame)
+  double size_x = 0, size_y = 0;  // m
+  double height = 0;              // m above the floor
+};
+
 struct MserTrackerParams {
   std::string camera;            // Track::camera of the tracks produced
   MserSystemParams system;
   ClassifierParams classes;
   double max_range = 12;         // m from the camera to the foot point
+  std::vector<Surface> surfaces;  // what an object's bottom may stand on besides the floor
+  // Objects present at the start: background regions on a surface at least this wide (m),
+  // parts closer than start_merge (m) one object.
+  double start_min_width = 0.1;
+  double start_merge = 0.35;
   // Feet cut off by the image's bottom edge: a box at least `cut_min_aspect` times as tall as
   // wide is placed as a person this tall (m) by its top; 0: not placed.
   double cut_person_height = 1.7;
@@ -61,6 +80,17 @@ class MserTracker : public Tracker {
   cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const override;
 
   const MserSystem& system() const { return system_; }
+  // Where an image box stands in the map frame.
+  struct Placement {
+    double x = 0, y = 0, width = 0;
+    double height = 0;      // top above the floor
+    double own_height = 0;  // top above what it stands on
+    double support = 0;     // what it stands on: 0 the floor, else a surface's height
+    bool by_head = false;   // placed by its top as a person (feet out of view or behind a table)
+  };
+  bool place(const cv::Rect& box, Placement* out) const;
+  // Track ids of the objects present at the start: kStartIds + 1, + 2, ...
+  static constexpr int64_t kStartIds = 1'000'000;
   const StereoCameraModel& camera() const { return camera_; }
   // The map-frame footprint of an image box (false: no floor contact in view); for tests.
   bool box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const;
@@ -80,6 +110,14 @@ class MserTracker : public Tracker {
     cv::Rect box;    // in the image, when last measured
     std::map<TrackClass, double> votes;
   };
+  bool place_by_head(const cv::Rect& box, Placement* out) const;
+  void find_start_objects();
+  struct StartObject {
+    int index = 0;
+    Placement place;
+  };
+  std::vector<StartObject> start_objects_;
+  bool start_found_ = false;
   StereoCameraModel camera_;
   MserTrackerParams p_;
   MserSystem system_;
