@@ -89,9 +89,11 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   const double depth = (camera_.optical_from_map() * foot).z();
   if (!(depth > 0)) return false;
   const double w = box.width * depth / k.fx;
-  // The visible bottom is the footprint's near side: its centre is half a width further.
+  // The visible bottom is the footprint's near side: its centre is half a footprint further.
+  // The footprint is no deeper than `max_footprint` (arms or a carried bag widen the box, not
+  // what stands on the floor).
   const Eigen::Vector2d along = horiz / dist;
-  const Eigen::Vector2d centre = Eigen::Vector2d(foot.x(), foot.y()) + 0.5 * w * along;
+  const Eigen::Vector2d centre = Eigen::Vector2d(foot.x(), foot.y()) + 0.5 * std::min(w, p_.max_footprint) * along;
   // The top: the ray through the box's top at the footprint's horizontal distance.
   const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
   const double top_h = std::hypot(top_dir.x(), top_dir.y());

@@ -4,8 +4,8 @@
 // the platform wants positions in the building's frame).
 //
 // Map frame. The box's bottom edge is where the object stands: the ray through its middle
-// meets the floor (z = 0) at the near side of the footprint, and the centre lies half a width
-// further along the line of sight. The object's depth along the optical axis gives its width
+// meets the floor (z = 0) at the near side of the footprint, and the centre lies half the
+// footprint further along the line of sight (half the width, at most `max_footprint` / 2). The object's depth along the optical axis gives its width
 // (box width x depth / fx) and its height (the ray through the box's top, at the footprint's
 // distance). An object whose box touches the image's bottom edge has no floor contact in view:
 // a tall box (a person close to the camera) is placed by its top at a person's height
@@ -48,6 +48,7 @@ struct MserTrackerParams {
   ClassifierParams classes;
   double max_range = 12;         // m from the camera to the foot point
   std::vector<Surface> surfaces;  // what an object's bottom may stand on besides the floor
+  double max_footprint = 0.5;     // m: the deepest footprint (a person's), whatever the box's width
   // Objects present at the start: background regions on a surface at least this wide (m),
   // parts closer than start_merge (m) one object.
   double start_min_width = 0.1;
