@@ -296,7 +296,7 @@ TEST(RenderedEvents, LeftBagFromMserTracksIsReportedInTime) {
   // People are the weak part of a mono camera today (docs/MSER.md): kept from getting worse.
   const vision::MotMetrics* person = of(vision::TrackClass::kPerson);
   ASSERT_NE(person, nullptr);
-  EXPECT_GE(person->mota, 0.4);
+  EXPECT_GE(person->mota, 0.6);
   fs::remove_all(out);
 }
 
