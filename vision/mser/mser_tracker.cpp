@@ -54,6 +54,7 @@ bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
   out->height = p_.cut_person_height;
   out->own_height = p_.cut_person_height;
   out->support = 0;
+  out->surface = -1;
   out->by_head = true;
   return std::isfinite(out->x) && std::isfinite(out->y);
 }
@@ -79,8 +80,13 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
     const Eigen::Vector3d q = c + ts * foot_dir;
     const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
     const double lx = cs * (q.x() - s.x) + sn * (q.y() - s.y), ly = -sn * (q.x() - s.x) + cs * (q.y() - s.y);
-    if (std::abs(lx) <= 0.5 * s.size_x && std::abs(ly) <= 0.5 * s.size_y) t = ts, support = s.height;
+    if (std::abs(lx) <= 0.5 * s.size_x + p_.surface_margin && std::abs(ly) <= 0.5 * s.size_y + p_.surface_margin) {
+      t = ts;
+      support = s.height;
+      out->surface = static_cast<int>(&s - p_.surfaces.data());
+    }
   }
+  if (!(support > 0)) out->surface = -1;
   const Eigen::Vector3d foot = c + t * foot_dir;
   const Eigen::Vector2d horiz(foot.x() - c.x(), foot.y() - c.y());
   const double dist = horiz.norm();
@@ -110,6 +116,7 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
     out->width = w;
     out->height = out->own_height = p_.cut_person_height;
     out->support = 0;
+    out->surface = -1;
     out->by_head = true;
     return std::isfinite(out->x) && std::isfinite(out->y);
   }
@@ -138,15 +145,32 @@ void MserTracker::find_start_objects() {
   // objects present when the model was learned (the chapter's "present at the start").
   start_objects_.clear();
   const double r3 = std::sqrt(3.0);  // a uniform patch's side is sqrt(3) times its second-moment width
-  for (const auto& [centroid, w2, h2, colour] : system_.background_model()) {
+  const auto model = system_.background_model();
+  std::vector<Placement> placed(model.size());
+  std::vector<char> ok(model.size(), 0);
+  // Each surface's own colour: that of the largest learned region lying on it (the table top).
+  std::vector<double> surface_area(p_.surfaces.size(), 0);
+  std::vector<cv::Vec3f> surface_colour(p_.surfaces.size());
+  for (size_t i = 0; i < model.size(); ++i) {
+    const auto& [centroid, w2, h2, colour] = model[i];
     const cv::Rect box(cv::Point(static_cast<int>(std::lround(centroid.x - 0.5 * r3 * w2)),
                                  static_cast<int>(std::lround(centroid.y - 0.5 * r3 * h2))),
                        cv::Point(static_cast<int>(std::lround(centroid.x + 0.5 * r3 * w2)),
                                  static_cast<int>(std::lround(centroid.y + 0.5 * r3 * h2))));
-    Placement pl;
-    if (!place(box, &pl) || pl.by_head || !(pl.support > 0)) continue;
+    if (!place(box, &placed[i]) || placed[i].by_head || placed[i].surface < 0) continue;
+    ok[i] = 1;
+    if (w2 * h2 > surface_area[placed[i].surface]) {
+      surface_area[placed[i].surface] = w2 * h2;
+      surface_colour[placed[i].surface] = colour;
+    }
+  }
+  for (size_t i = 0; i < model.size(); ++i) {
+    if (!ok[i]) continue;
+    const Placement& pl = placed[i];
     if (pl.width < p_.start_min_width || pl.width >= p_.classes.robot_min_width || pl.own_height > p_.classes.bag_max_height)
       continue;
+    // A patch of the surface's own colour is the surface, not something lying on it.
+    if (cv::norm(std::get<3>(model[i]) - surface_colour[pl.surface]) <= p_.system.bg_colour) continue;
     bool near = false;  // the parts of one object (a laptop's screen and keys) are one
     for (const StartObject& o : start_objects_) near = near || std::hypot(o.place.x - pl.x, o.place.y - pl.y) < p_.start_merge;
     if (near) continue;

@@ -18,8 +18,9 @@
 // Surfaces (table tops from the floor plan): a box's bottom ray that meets a surface inside its
 // outline before the floor stands on it; classed by its height above the surface; taller than
 // a bag above it, it is someone behind the table, placed by the head. Once the background is
-// learned, the learned regions lying on a surface, 0.1 to 0.5 m wide, are the objects present
-// at the start: reported every frame as still bags (ids from kStartIds + 1), so the activity
+// learned, the learned regions lying on a surface, 0.1 to 0.5 m wide, whose colour differs from
+// the surface's own (its largest learned region's) by more than the background's colour limit,
+// are the objects present at the start: reported every frame as still bags (ids from kStartIds + 1), so the activity
 // rules give them no owner.
 #pragma once
 
@@ -48,6 +49,7 @@ struct MserTrackerParams {
   ClassifierParams classes;
   double max_range = 12;         // m from the camera to the foot point
   std::vector<Surface> surfaces;  // what an object's bottom may stand on besides the floor
+  double surface_margin = 0.1;    // m around a surface's outline that still counts as on it
   double max_footprint = 0.5;     // m: the deepest footprint (a person's), whatever the box's width
   // Objects present at the start: background regions on a surface at least this wide (m),
   // parts closer than start_merge (m) one object.
@@ -87,6 +89,7 @@ class MserTracker : public Tracker {
     double height = 0;      // top above the floor
     double own_height = 0;  // top above what it stands on
     double support = 0;     // what it stands on: 0 the floor, else a surface's height
+    int surface = -1;       // which of MserTrackerParams::surfaces (-1: the floor)
     bool by_head = false;   // placed by its top as a person (feet out of view or behind a table)
   };
   bool place(const cv::Rect& box, Placement* out) const;
