@@ -151,6 +151,10 @@ void add_track_command(CLI::App& app) {
     } else {
       vision::mser::MserTrackerParams tp;
       tp.camera = camera_id;
+      // A rendered source's building: its table tops are surfaces objects lie on.
+      if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get()))
+        for (const FloorplanFurniture& f : r->world().furniture())
+          tp.surfaces.push_back({f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y, f.height});
       auto mt = vision::mser::MserTracker::create(*model, tp);
       if (!mt) throw Exit{report(mt.error())};
       system = std::make_unique<vision::mser::MserTracker>(std::move(*mt));

@@ -130,6 +130,25 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   return std::isfinite(out->x) && std::isfinite(out->y) && std::isfinite(out->height);
 }
 
+int MserTracker::surface_under(double u, double v) const {
+  const Eigen::Vector3d c = camera_.pose().position;
+  const Eigen::Vector3d dir = camera_.back_project_map(u, v, 1.0) - c;
+  if (!(dir.z() < -1e-9)) return -1;
+  int best = -1;
+  double best_t = -c.z() / dir.z();  // the floor
+  for (size_t i = 0; i < p_.surfaces.size(); ++i) {
+    const Surface& s = p_.surfaces[i];
+    if (!(s.height > 0) || s.height >= c.z()) continue;
+    const double ts = (s.height - c.z()) / dir.z();
+    if (!(ts > 0) || ts >= best_t) continue;
+    const Eigen::Vector3d q = c + ts * dir;
+    const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
+    const double lx = cs * (q.x() - s.x) + sn * (q.y() - s.y), ly = -sn * (q.x() - s.x) + cs * (q.y() - s.y);
+    if (std::abs(lx) <= 0.5 * s.size_x && std::abs(ly) <= 0.5 * s.size_y) best = static_cast<int>(i), best_t = ts;
+  }
+  return best;
+}
+
 bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {
   Placement pl;
   if (!place(box, &pl)) return false;
@@ -158,6 +177,9 @@ void MserTracker::find_start_objects() {
                        cv::Point(static_cast<int>(std::lround(centroid.x + 0.5 * r3 * w2)),
                                  static_cast<int>(std::lround(centroid.y + 0.5 * r3 * h2))));
     if (!place(box, &placed[i]) || placed[i].by_head || placed[i].surface < 0) continue;
+    // The region's centroid must look onto that surface's top too (a floor patch seen just past
+    // the table's far edge has its bottom there, not its middle).
+    if (surface_under(centroid.x, centroid.y) != placed[i].surface) continue;
     ok[i] = 1;
     if (w2 * h2 > surface_area[placed[i].surface]) {
       surface_area[placed[i].surface] = w2 * h2;

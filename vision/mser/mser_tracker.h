@@ -115,6 +115,8 @@ class MserTracker : public Tracker {
     std::map<TrackClass, double> votes;
   };
   bool place_by_head(const cv::Rect& box, Placement* out) const;
+  // The surface the ray through pixel (u, v) meets first, inside its outline (-1: the floor).
+  int surface_under(double u, double v) const;
   void find_start_objects();
   struct StartObject {
     int index = 0;
