@@ -157,6 +157,26 @@ TEST(Cli, RunWithAVisionSensorOnACameraWritesTracks) {
   EXPECT_NE(wrong.out.find("not a vision sensor"), std::string::npos) << wrong.out;
 }
 
+// With videos on, each frame sensor's annotated view is written beside the camera's own video;
+// --no-video writes neither.
+TEST(Cli, RunWritesEachTrackerSAnnotatedViewBesideTheCameraVideo) {
+  const fs::path out = temp_dir("mser_video"), quiet = temp_dir("mser_no_video");
+  const Output o = vigil_cmd("run " + scenario("dis_left_bag").string() + " --sensor mser --duration 2 --out " + out.string() +
+                             " --quiet");
+  ASSERT_EQ(o.code, 0) << o.out;
+  for (const char* cam : {"cam_corridor", "cam_lab"}) {
+    const fs::path v = out / "cameras" / (std::string(cam) + "_mser.avi");
+    ASSERT_TRUE(fs::exists(v)) << v;
+    EXPECT_GT(fs::file_size(v), fs::file_size(out / "cameras" / (std::string(cam) + ".avi")))
+        << "the view and the segmentation side by side: twice the camera's width";
+  }
+  const Output n = vigil_cmd("run " + scenario("dis_left_bag").string() + " --sensor mser --duration 1 --no-video --out " +
+                             quiet.string() + " --quiet");
+  ASSERT_EQ(n.code, 0) << n.out;
+  EXPECT_FALSE(fs::exists(quiet / "cameras" / "cam_corridor_mser.avi"));
+  EXPECT_TRUE(fs::exists(quiet / "tracks.jsonl"));
+}
+
 TEST(Cli, RunWithSensorOnEveryCameraWritesEventsAndEvalScoresThem) {
   const fs::path out = temp_dir("sensor_run");
   Output o = vigil_cmd("run " + scenario("dis_bag_taken").string() + " --sensor truth --out " + out.string() + " --no-video --quiet");

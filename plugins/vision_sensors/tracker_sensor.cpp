@@ -90,6 +90,10 @@ class TrackerSensor : public VisionSensor {
     return Status::Ok();
   }
 
+  cv::Mat annotate(const vision::StereoFrame& frame, const std::vector<vision::Track>& tracks) const override {
+    return tracker_ ? tracker_->annotate(frame, tracks) : cv::Mat();
+  }
+
  private:
   TrackerKind kind_;
   std::unique_ptr<vision::Tracker> tracker_;

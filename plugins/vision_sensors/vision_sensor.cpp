@@ -118,6 +118,21 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
         std::vector<vision::Track> fresh;
         if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return Status(in_context(*att, world, s.error()));
         ++att->index;
+        if (self->videos_ && self->writing_) {
+          const cv::Mat img = att->sensor->annotate(frame, fresh);
+          if (!img.empty()) {
+            if (!att->video.isOpened()) {
+              const std::filesystem::path dir = self->out_dir_ / "cameras";
+              std::error_code ec;
+              std::filesystem::create_directories(dir, ec);
+              att->video_path = (dir / (att->camera.id + "_" + att->camera.plugin + ".avi")).string();
+              if (!att->video.open(att->video_path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                                   att->camera.rate_hz, img.size()))
+                return Status(bad_input(att->video_path, 0, "", "cannot open the video for writing"));
+            }
+            att->video.write(img);
+          }
+        }
         return self->emit(att, world, frame.stamp_ns, &fresh);
       });
     }
@@ -155,6 +170,7 @@ Status VisionSensorHost::start(const World& world, const std::filesystem::path& 
     if (!rules) return in_context(*a, world, rules.error());
     a->rules.emplace(std::move(*rules));
   }
+  out_dir_ = out_dir;
   if (!out_dir.empty() && !sensors_.empty()) {
     if (Status s = out_.open(out_dir / "tracks.jsonl"); !s) return s;
     events_path_ = (out_dir / "camera_events.jsonl").string();
@@ -227,6 +243,8 @@ Error VisionSensorHost::in_context(const Attached& a, const World& world, Error 
 }
 
 Status VisionSensorHost::finish(const World&) {
+  for (auto& a : sensors_)
+    if (a->video.isOpened()) a->video.release();
   if (!writing_) return Status::Ok();
   writing_ = false;
   const bool events_ok = std::fclose(events_out_) == 0;

@@ -19,6 +19,9 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
 #include "common/status.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "vision/activity_rules.h"
@@ -54,6 +57,13 @@ class VisionSensor {
   // One camera tick at the world's current time: `frame` is the rendered stereo frame (null for
   // sensors that do not want frames). Appends this tick's tracks to `out`.
   virtual Status tick(const vision::StereoFrame* frame, const World& world, std::vector<vision::Track>* out) = 0;
+  // The last tick annotated (a tracker's camera view with its tracks and own pictures), for the
+  // run's videos; empty when the sensor has no picture to show.
+  virtual cv::Mat annotate(const vision::StereoFrame& frame, const std::vector<vision::Track>& tracks) const {
+    (void)frame;
+    (void)tracks;
+    return {};
+  }
 };
 
 // Built-in vision sensors by name ("truth", ...).
@@ -93,6 +103,9 @@ class VisionSensorHost : public RunObserver {
   const std::vector<vision::Event>& events() const { return events_; }
   // Called with every event as it is raised (after it is written); an error stops the run.
   void set_event_sink(std::function<Status(const vision::Event&)> sink) { sink_ = std::move(sink); }
+  // Also write DIR/cameras/<camera>_<plugin>.avi: each frame sensor's annotated view per tick
+  // (the camera rate). Off by default; `vigil run` turns it on unless --no-video.
+  void set_videos(bool on) { videos_ = on; }
 
  private:
   VisionSensorHost() = default;
@@ -104,6 +117,8 @@ class VisionSensorHost : public RunObserver {
     std::optional<vision::ActivityRules> rules;  // made at start()
     SimTime next_tick = 0;
     int64_t index = 0;
+    cv::VideoWriter video;  // the annotated view (set_videos)
+    std::string video_path;
   };
   // One tick's tracks of a camera: written, kept, and given to the camera's rules.
   Status emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh);
@@ -118,6 +133,8 @@ class VisionSensorHost : public RunObserver {
   std::FILE* events_out_ = nullptr;
   std::string events_path_;
   bool writing_ = false;
+  bool videos_ = false;
+  std::filesystem::path out_dir_;
 };
 
 }  // namespace vigil::sensors
