@@ -72,21 +72,9 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   if (!(foot_dir.z() < -1e-9)) return false;  // at or above the horizon
   // What the bottom stands on: the first surface (a table top) the ray meets inside its
   // outline, else the floor.
-  double support = 0, t = -c.z() / foot_dir.z();
-  for (const Surface& s : p_.surfaces) {
-    if (!(s.height > 0) || s.height >= c.z()) continue;
-    const double ts = (s.height - c.z()) / foot_dir.z();
-    if (!(ts > 0) || ts >= t) continue;
-    const Eigen::Vector3d q = c + ts * foot_dir;
-    const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
-    const double lx = cs * (q.x() - s.x) + sn * (q.y() - s.y), ly = -sn * (q.x() - s.x) + cs * (q.y() - s.y);
-    if (std::abs(lx) <= 0.5 * s.size_x + p_.surface_margin && std::abs(ly) <= 0.5 * s.size_y + p_.surface_margin) {
-      t = ts;
-      support = s.height;
-      out->surface = static_cast<int>(&s - p_.surfaces.data());
-    }
-  }
-  if (!(support > 0)) out->surface = -1;
+  double t = 0;
+  out->surface = first_surface(c, foot_dir, p_.surface_margin, &t);
+  const double support = out->surface >= 0 ? p_.surfaces[out->surface].height : 0.0;
   const Eigen::Vector3d foot = c + t * foot_dir;
   const Eigen::Vector2d horiz(foot.x() - c.x(), foot.y() - c.y());
   const double dist = horiz.norm();
@@ -130,23 +118,28 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   return std::isfinite(out->x) && std::isfinite(out->y) && std::isfinite(out->height);
 }
 
-int MserTracker::surface_under(double u, double v) const {
-  const Eigen::Vector3d c = camera_.pose().position;
-  const Eigen::Vector3d dir = camera_.back_project_map(u, v, 1.0) - c;
-  if (!(dir.z() < -1e-9)) return -1;
+int MserTracker::first_surface(const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double margin, double* t) const {
   int best = -1;
-  double best_t = -c.z() / dir.z();  // the floor
+  *t = -c.z() / dir.z();  // the floor
   for (size_t i = 0; i < p_.surfaces.size(); ++i) {
     const Surface& s = p_.surfaces[i];
     if (!(s.height > 0) || s.height >= c.z()) continue;
     const double ts = (s.height - c.z()) / dir.z();
-    if (!(ts > 0) || ts >= best_t) continue;
+    if (!(ts > 0) || ts >= *t) continue;
     const Eigen::Vector3d q = c + ts * dir;
     const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
     const double lx = cs * (q.x() - s.x) + sn * (q.y() - s.y), ly = -sn * (q.x() - s.x) + cs * (q.y() - s.y);
-    if (std::abs(lx) <= 0.5 * s.size_x && std::abs(ly) <= 0.5 * s.size_y) best = static_cast<int>(i), best_t = ts;
+    if (std::abs(lx) <= 0.5 * s.size_x + margin && std::abs(ly) <= 0.5 * s.size_y + margin) best = static_cast<int>(i), *t = ts;
   }
   return best;
+}
+
+int MserTracker::surface_under(double u, double v) const {
+  const Eigen::Vector3d c = camera_.pose().position;
+  const Eigen::Vector3d dir = camera_.back_project_map(u, v, 1.0) - c;
+  if (!(dir.z() < -1e-9)) return -1;
+  double t = 0;
+  return first_surface(c, dir, 0.0, &t);
 }
 
 bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const {

@@ -117,6 +117,9 @@ class MserTracker : public Tracker {
   bool place_by_head(const cv::Rect& box, Placement* out) const;
   // The surface the ray through pixel (u, v) meets first, inside its outline (-1: the floor).
   int surface_under(double u, double v) const;
+  // The first surface the ray c + t dir (dir pointing down) meets within `margin` of its
+  // outline, and its t (-1 and the floor's t when none).
+  int first_surface(const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double margin, double* t) const;
   void find_start_objects();
   struct StartObject {
     int index = 0;
