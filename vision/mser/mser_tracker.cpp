@@ -209,6 +209,21 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   last_stamp_ = frame.stamp_ns;
 
   std::vector<Track> out;
+  auto report = [&](int64_t id, TrackClass cls, double x, double y, double w, double h, double confidence, bool measured) {
+    Track t;
+    t.stamp_ns = frame.stamp_ns;
+    t.camera = p_.camera;
+    t.id = static_cast<int>(id);
+    t.cls = cls;
+    t.x = x;
+    t.y = y;
+    t.width = w;
+    t.height = h;
+    t.confidence = confidence;
+    t.measured = measured;
+    out.push_back(std::move(t));
+    return &out.back();
+  };
   std::map<int64_t, History> next;
   for (const ImageObject& o : system_.objects()) {
     Placement pl;
@@ -268,20 +283,9 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       if (v > best) best = v, cls = c;
     hist.cls = cls;
     next[id] = hist;
-    Track t;
-    t.stamp_ns = frame.stamp_ns;
-    t.camera = p_.camera;
-    t.id = static_cast<int>(id);
-    t.cls = cls;
-    t.x = x;
-    t.y = y;
-    t.vx = hist.vx;
-    t.vy = hist.vy;
-    t.width = w;
-    t.height = h;
-    t.confidence = std::min(1.0, 0.5 + 0.05 * o.age);
-    t.measured = true;
-    out.push_back(std::move(t));
+    Track* t = report(id, cls, x, y, w, h, std::min(1.0, 0.5 + 0.05 * o.age), true);
+    t->vx = hist.vx;
+    t->vy = hist.vy;
   }
   // Objects unseen this frame keep their history for a while; a still bag is held where it
   // was (not measured: a walker in front hides it, or its blob merged with theirs).
@@ -301,18 +305,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     bool taken_over = false;  // a bag reported at its place now is it, or hides it
     for (const Track& o : out) taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match);
     if (taken_over) continue;
-    Track t;
-    t.stamp_ns = frame.stamp_ns;
-    t.camera = p_.camera;
-    t.id = static_cast<int>(id);
-    t.cls = hist.cls;
-    t.x = hist.x;
-    t.y = hist.y;
-    t.width = hist.width;
-    t.height = hist.height;
-    t.confidence = 0.3;
-    t.measured = false;
-    out.push_back(std::move(t));
+    report(id, hist.cls, hist.x, hist.y, hist.width, hist.height, 0.3, false);
   }
   // The objects present at the start, found once the background is learned, reported as
   // lying where they were (a still bag each: the rules judge who handles them).
@@ -320,20 +313,8 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     find_start_objects();
     start_found_ = true;
   }
-  for (const StartObject& o : start_objects_) {
-    Track t;
-    t.stamp_ns = frame.stamp_ns;
-    t.camera = p_.camera;
-    t.id = static_cast<int>(kStartIds + o.index);
-    t.cls = TrackClass::kBag;
-    t.x = o.place.x;
-    t.y = o.place.y;
-    t.width = o.place.width;
-    t.height = o.place.height;
-    t.confidence = 0.5;
-    t.measured = true;
-    out.push_back(std::move(t));
-  }
+  for (const StartObject& o : start_objects_)
+    report(kStartIds + o.index, TrackClass::kBag, o.place.x, o.place.y, o.place.width, o.place.height, 0.5, true);
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });
   history_.swap(next);
   return out;
