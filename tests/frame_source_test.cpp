@@ -410,7 +410,8 @@ TEST_F(FrameSourceTest, CalibrationOfARectifiedRigPassesImagesThrough) {
   }
   ASSERT_TRUE(save_stereo_calibration(path("rig.yaml"), ideal_rig({96, 64})).ok());
   StereoSequenceOptions options;
-  options.pose.position = {1, 2, 3};
+  options.pose = CameraPose{};
+  options.pose->position = {1, 2, 3};
   auto source = StereoSequenceSource::open(path("l%d.png"), path("r%d.png"), path("rig.yaml"), options);
   ASSERT_TRUE(source.ok()) << source.error().str();
   EXPECT_FALSE((*source)->rectifies());

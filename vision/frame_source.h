@@ -34,6 +34,9 @@ class FrameSource {
   virtual Result<bool> next(StereoFrame* frame) = 0;
   // The rig's model when the source knows it (rendered frames, calibrated stereo sequences).
   virtual std::optional<StereoCameraModel> camera_model() const { return std::nullopt; }
+  // True when the model's pose places the rig in the map frame (rendered frames; a recorded rig
+  // whose calibration carries a pose, or given one); false when the pose is only the origin.
+  virtual bool has_pose() const { return camera_model().has_value(); }
   virtual bool is_stereo() const = 0;
   // Short description for logs, e.g. "video vtest.avi (768x576)".
   virtual std::string describe() const = 0;

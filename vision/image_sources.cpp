@@ -361,8 +361,10 @@ Result<std::unique_ptr<StereoSequenceSource>> StereoSequenceSource::open(
         return internal_error("cannot build the rectification maps: " + e.err);
       }
     }
-    auto model = rectified_camera_model(c, options.pose);
+    const std::optional<CameraPose> pose = options.pose ? options.pose : c.pose;
+    auto model = rectified_camera_model(c, pose.value_or(CameraPose{}));
     if (!model) return model.error();
+    s->has_pose_ = pose.has_value();
     s->model_ = *model;
     s->calibration_ = std::move(calibration);
   }
@@ -596,15 +598,35 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& spec) 
     return spec_error(spec, "stereo", "expected LEFT,RIGHT or LEFT,RIGHT,CALIBRATION");
   StereoSequenceOptions so;
   so.fps = *fps;
-  auto matcher = take_matcher_options(spec, &opts, {"alpha"});
+  auto matcher = take_matcher_options(spec, &opts, {"alpha", "pose"});
   if (!matcher) return matcher.error();
   so.matcher = *matcher;
   for (const auto& [key, value] : opts) {
+    if (key == "pose") {
+      const std::vector<std::string> parts = split(value, ',');
+      if (parts.size() != 6) return spec_error(spec, key, "expected X,Y,Z,YAW,PITCH,ROLL (metres, degrees), got '" + value + "'");
+      double v[6];
+      for (int i = 0; i < 6; ++i) {
+        auto d = parse_double(spec, key, parts[i]);
+        if (!d) return d.error();
+        v[i] = *d;
+      }
+      if (std::abs(v[4]) > 90) return spec_error(spec, key, "pitch must be within -90 and 90 degrees");
+      CameraPose pose;
+      pose.position = {v[0], v[1], v[2]};
+      pose.yaw = v[3] * M_PI / 180;
+      pose.pitch = v[4] * M_PI / 180;
+      pose.roll = v[5] * M_PI / 180;
+      so.pose = pose;
+      continue;
+    }
     if (key != "alpha") return spec_error(spec, key, "unknown option for stereo: sources");
     auto v = parse_double(spec, key, value);
     if (!v) return v.error();
     so.rectify_alpha = *v;
   }
+  if (so.pose && paths.size() != 3)
+    return spec_error(spec, "pose", "a pose needs a calibration (stereo:LEFT,RIGHT,CALIBRATION)");
   auto s = StereoSequenceSource::open(paths[0], paths[1], paths.size() == 3 ? paths[2] : "", so);
   if (!s) return s.error();
   return std::unique_ptr<FrameSource>(std::move(*s));

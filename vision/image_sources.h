@@ -28,6 +28,9 @@
 //   subpixel=fit|cancel             fit: the matcher's own sub-pixel disparities; cancel: plus a
 //                                   half-pixel-shifted pass averaged in (half_pixel_pass)
 //   alpha=A                         stereo only: rectification scaling, 0 (default) to 1
+//   pose=X,Y,Z,YAW,PITCH,ROLL       stereo only: the rig's pose in the map frame (metres; angles in
+//                                   degrees, vision/stereo_camera_model.h's CameraPose), overriding
+//                                   the calibration file's (written by `vigil calibrate floor`)
 // Example: stereo:/data/left%02d.jpg,/data/right%02d.jpg,/data/rig.yaml;disparity=sgbm;num_disparities=128
 #pragma once
 
@@ -125,7 +128,8 @@ class ImageSequenceSource : public MonoFrameSource {
 struct StereoSequenceOptions {
   double fps = 0;                              // time stamp rate; 0 = the left stream's default
   std::optional<StereoMatcherParams> matcher;  // when set, every frame gets a disparity map
-  CameraPose pose;                             // the rig's pose in the map frame
+  std::optional<CameraPose> pose;              // the rig's pose in the map frame; nullopt: the
+                                               // calibration's, if it has one
   double rectify_alpha = 0;                    // used when the calibration lacks P1/P2
 };
 
@@ -147,6 +151,7 @@ class StereoSequenceSource : public FrameSource {
 
   Result<bool> next(StereoFrame* frame) override;
   std::optional<StereoCameraModel> camera_model() const override { return model_; }
+  bool has_pose() const override { return model_ && has_pose_; }
   bool is_stereo() const override { return true; }
   std::string describe() const override;
   // The calibration in use (with its rectification), when there is one.
@@ -161,6 +166,7 @@ class StereoSequenceSource : public FrameSource {
   std::string calibration_path_;
   StereoSequenceOptions options_;
   std::optional<StereoCameraModel> model_;
+  bool has_pose_ = false;  // the model's pose came from the options or the calibration
   std::optional<StereoMatcher> matcher_;
   cv::Mat map_left_[2], map_right_[2];  // initUndistortRectifyMap output (CV_16SC2 + CV_16UC1)
   int64_t index_ = 0;

@@ -1,5 +1,6 @@
 #include "vision/stereo_calibration.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -182,7 +183,16 @@ std::optional<std::vector<cv::Point2f>> find_chessboard_corners(const cv::Mat& i
   if (!cv::findChessboardCorners(grey, board.inner_corners, corners,
                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE))
     return std::nullopt;
-  const int w = board.subpixel_window;
+  int w = board.subpixel_window;
+  if (w <= 0) {
+    double nearest = 1e9;
+    const int cols = board.inner_corners.width;
+    for (size_t i = 0; i < corners.size(); ++i) {
+      if ((i + 1) % cols != 0 && i + 1 < corners.size()) nearest = std::min(nearest, cv::norm(corners[i] - corners[i + 1]));
+      if (i + cols < corners.size()) nearest = std::min(nearest, cv::norm(corners[i] - corners[i + cols]));
+    }
+    w = std::clamp(static_cast<int>(nearest / 3), 2, 11);
+  }
   cv::cornerSubPix(grey, corners, cv::Size(w, w), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 0.01));
   return corners;
@@ -218,9 +228,12 @@ Result<StereoCalibration> calibrate_stereo_chessboard(const std::vector<std::str
                                std::to_string(size.height));
       }
       auto cl = find_chessboard_corners(l, board);
-      auto cr = cl ? find_chessboard_corners(r, board) : std::nullopt;
+      auto cr = find_chessboard_corners(r, board);
       if (!cl || !cr) {
         rep.skipped_pairs.push_back(left_files[i]);
+        rep.skip_reasons.push_back(!cl && !cr ? "board not found in either view"
+                                   : !cl      ? "board not found in the left view"
+                                              : "board not found in the right view (" + right_files[i] + ")");
         continue;
       }
       left_points.push_back(std::move(*cl));
@@ -230,12 +243,14 @@ Result<StereoCalibration> calibrate_stereo_chessboard(const std::vector<std::str
   } catch (const cv::Exception& e) {
     return internal_error("chessboard detection failed: " + std::string(e.what()));
   }
-  if (static_cast<int>(left_points.size()) < board.min_pairs)
+  if (static_cast<int>(left_points.size()) < board.min_pairs) {
+    if (report) *report = rep;
     return bad_input("", 0, "left_files",
                      "the chessboard was found in both views of only " +
                          std::to_string(left_points.size()) + " of " +
                          std::to_string(left_files.size()) + " pairs (need " +
                          std::to_string(board.min_pairs) + ")");
+  }
 
   std::vector<cv::Point3f> board_points;
   for (int y = 0; y < board.inner_corners.height; ++y)
@@ -248,14 +263,23 @@ Result<StereoCalibration> calibrate_stereo_chessboard(const std::vector<std::str
   c.image_size = size;
   try {
     // Each camera alone first, then both together starting from those intrinsics.
+    int lens_flags = 0;
+    if (board.lens == ChessboardParams::LensModel::kRadial) lens_flags = cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3;
+    if (board.lens == ChessboardParams::LensModel::kPinhole)
+      lens_flags = cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3;
+    c.D1 = cv::Mat::zeros(1, 5, CV_64F);
+    c.D2 = cv::Mat::zeros(1, 5, CV_64F);
     std::vector<cv::Mat> rvecs, tvecs;
-    rep.left_rms = cv::calibrateCamera(object_points, left_points, size, c.K1, c.D1, rvecs, tvecs);
-    rep.right_rms = cv::calibrateCamera(object_points, right_points, size, c.K2, c.D2, rvecs, tvecs);
-    cv::Mat E, F;
+    rep.left_rms = cv::calibrateCamera(object_points, left_points, size, c.K1, c.D1, rvecs, tvecs, lens_flags);
+    rep.right_rms = cv::calibrateCamera(object_points, right_points, size, c.K2, c.D2, rvecs, tvecs, lens_flags);
+    cv::Mat E, F, per_view;
     rep.stereo_rms = cv::stereoCalibrate(
-        object_points, left_points, right_points, c.K1, c.D1, c.K2, c.D2, size, c.R, c.T, E, F,
-        cv::CALIB_USE_INTRINSIC_GUESS,
+        object_points, left_points, right_points, c.K1, c.D1, c.K2, c.D2, size, c.R, c.T, E, F, per_view,
+        cv::CALIB_USE_INTRINSIC_GUESS | lens_flags,
         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-6));
+    per_view.convertTo(per_view, CV_64F);
+    for (int i = 0; i < per_view.rows; ++i)
+      rep.pair_rms.emplace_back(per_view.at<double>(i, 0), per_view.at<double>(i, 1));
   } catch (const cv::Exception& e) {
     return internal_error("stereo calibration failed: " + std::string(e.what()));
   }
@@ -291,6 +315,12 @@ Status save_stereo_calibration(const std::string& path, const StereoCalibration&
     if (c.has_rectification())
       fs << "R1" << c.R1 << "R2" << c.R2 << "P1" << c.P1 << "P2" << c.P2 << "Q" << c.Q;
     if (c.rms > 0) fs << "rms" << c.rms;
+    if (c.pose) {
+      constexpr double kDeg = 180.0 / M_PI;
+      fs << "pose_position" << std::vector<double>{c.pose->position.x(), c.pose->position.y(), c.pose->position.z()};
+      fs << "pose_yaw_deg" << c.pose->yaw * kDeg << "pose_pitch_deg" << c.pose->pitch * kDeg << "pose_roll_deg"
+         << c.pose->roll * kDeg;
+    }
     fs.release();
   } catch (const cv::Exception& e) {
     return bad_input(path, 0, "", "cannot write the calibration: " + std::string(e.what()));
@@ -355,6 +385,46 @@ Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
     if (!n.isReal() && !n.isInt()) return reader.error("rms", "must be a number");
     c.rms = n.real();
   }
+  // The pose is all or nothing too.
+  const char* pose_keys[] = {"pose_position", "pose_yaw_deg", "pose_pitch_deg", "pose_roll_deg"};
+  int pose_present = 0;
+  for (const char* key : pose_keys) pose_present += !fs[key].empty();
+  if (pose_present != 0) {
+    for (const char* key : pose_keys)
+      if (fs[key].empty())
+        return reader.error(key, "missing key (pose_position, pose_yaw_deg, pose_pitch_deg and pose_roll_deg go together)");
+    Result<cv::Mat> p = reader.matrix("pose_position", 3, 1, true);
+    if (!p) return p.error();
+    CameraPose pose;
+    pose.position = {p->at<double>(0), p->at<double>(1), p->at<double>(2)};
+    double* angles[] = {&pose.yaw, &pose.pitch, &pose.roll};
+    const double limits[] = {360, 90, 180};
+    for (int i = 0; i < 3; ++i) {
+      const char* key = pose_keys[i + 1];
+      const cv::FileNode n = fs[key];
+      if (!n.isReal() && !n.isInt()) return reader.error(key, "must be a number (degrees)");
+      const double v = n.real();
+      if (!std::isfinite(v) || std::abs(v) > limits[i])
+        return reader.error(key, "must be within -" + std::to_string(static_cast<int>(limits[i])) + " and " +
+                                     std::to_string(static_cast<int>(limits[i])) + " degrees");
+      *angles[i] = v * M_PI / 180.0;
+    }
+    c.pose = pose;
+  }
+  return c;
+}
+
+StereoCalibration ideal_calibration(const StereoCameraModel& model) {
+  const Intrinsics& k = model.intrinsics();
+  StereoCalibration c;
+  c.image_size = {k.width, k.height};
+  c.K1 = (cv::Mat_<double>(3, 3) << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  c.K2 = c.K1.clone();
+  c.D1 = cv::Mat::zeros(1, 5, CV_64F);
+  c.D2 = cv::Mat::zeros(1, 5, CV_64F);
+  c.R = cv::Mat::eye(3, 3, CV_64F);
+  c.T = (cv::Mat_<double>(3, 1) << -model.baseline(), 0, 0);
+  c.pose = model.pose();
   return c;
 }
 

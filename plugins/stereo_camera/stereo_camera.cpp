@@ -85,6 +85,28 @@ Status match_disparity(const vision::StereoMatcher& matcher, const vision::Stere
 
 // ---- CameraRig ----
 
+void CameraRig::set_recorded_source(const std::string& camera_id, std::unique_ptr<vision::FrameSource> source) {
+  recorded_[camera_id] = std::move(source);
+}
+
+CameraSpec camera_spec_from_model(CameraSpec spec, const vision::StereoCameraModel& model) {
+  const vision::Intrinsics& k = model.intrinsics();
+  spec.width = k.width;
+  spec.height = k.height;
+  spec.fx = k.fx;
+  spec.fy = k.fy;
+  spec.cx = k.cx;
+  spec.cy = k.cy;
+  spec.hfov.reset();
+  spec.baseline = model.baseline();
+  const vision::CameraPose& p = model.pose();
+  spec.position = {p.position.x(), p.position.y(), p.position.z()};
+  spec.yaw = p.yaw;
+  spec.pitch = p.pitch;
+  spec.roll = p.roll;
+  return spec;
+}
+
 void CameraRig::add_consumer(const std::string& camera_id, FrameConsumer consumer) {
   consumers_.emplace_back(camera_id, std::move(consumer));
 }
@@ -102,11 +124,16 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
     cam->spec = spec;
     cam->model = camera_model(spec);
     cam->scene_options = scene_options_for(world, &spec);
-    RendererOptions ro = options_.renderer;
-    ro.effects.seed = camera_noise_seed(scenario.seed, spec.id);
-    auto renderer = OsmesaRenderer::create(spec.width, spec.height, ro);
-    if (!renderer) return renderer.error();
-    cam->renderer = std::move(*renderer);
+    if (auto it = recorded_.find(spec.id); it != recorded_.end() && it->second) {
+      cam->recorded = std::move(it->second);
+      if (auto m = cam->recorded->camera_model()) cam->model = *m;
+    } else {
+      RendererOptions ro = options_.renderer;
+      ro.effects.seed = camera_noise_seed(scenario.seed, spec.id);
+      auto renderer = OsmesaRenderer::create(spec.width, spec.height, ro);
+      if (!renderer) return renderer.error();
+      cam->renderer = std::move(*renderer);
+    }
     if (options_.video && !out_dir.empty()) {
       std::error_code ec;
       std::filesystem::create_directories(out_dir / "cameras", ec);
@@ -127,12 +154,27 @@ Status CameraRig::after_step(const World& world) { return render_due(world); }
 
 Status CameraRig::render_due(const World& world) {
   for (auto& cam : cameras_) {
-    if (world.time() < cam->next_tick) continue;
-    const RenderScene scene = build_render_scene(world, cam->scene_options);
+    if (world.time() < cam->next_tick || cam->ended) continue;
     vision::StereoFrame frame;
+    if (cam->recorded) {
+      auto more = cam->recorded->next(&frame);
+      if (!more) return more.error();
+      if (!*more) {
+        cam->ended = true;
+        recorded_ended_ = true;
+        continue;
+      }
+      if (frame.left.cols != cam->spec.width || frame.left.rows != cam->spec.height)
+        return bad_input(cam->recorded->describe(), 0, "",
+                         "frame " + std::to_string(cam->index) + " is " + std::to_string(frame.left.cols) + "x" +
+                             std::to_string(frame.left.rows) + " but camera " + cam->spec.id + " is " +
+                             std::to_string(cam->spec.width) + "x" + std::to_string(cam->spec.height));
+    } else {
+      const RenderScene scene = build_render_scene(world, cam->scene_options);
+      if (Status s = cam->renderer->render(scene, cam->model, &frame); !s) return s;
+    }
     frame.index = cam->index;
     frame.stamp_ns = world.time();
-    if (Status s = cam->renderer->render(scene, cam->model, &frame); !s) return s;
     if (cam->video.isOpened()) cam->video.write(frame.left);
     for (const auto& [id, consumer] : consumers_) {
       if (!id.empty() && id != cam->spec.id) continue;

@@ -94,6 +94,12 @@ class CameraRig : public RunObserver {
   void add_consumer(const std::string& camera_id, FrameConsumer consumer);
   // True when the rig has anything to do (video on, or a consumer attached).
   bool active() const { return options_.video || !consumers_.empty(); }
+  // Takes `camera_id`'s frames from a recorded source instead of rendering them: one recorded
+  // frame per camera tick, stamped with the world's time, until the source ends (then the camera
+  // delivers nothing more; recorded_ended() turns true). The caller makes the scenario's camera
+  // spec match the source's model (camera_spec_from_model) so the sensors use the rig's pose.
+  void set_recorded_source(const std::string& camera_id, std::unique_ptr<vision::FrameSource> source);
+  bool recorded_ended() const { return recorded_ended_; }
 
   Status start(const World& world, const std::filesystem::path& out_dir) override;
   Status after_step(const World& world) override;
@@ -108,6 +114,8 @@ class CameraRig : public RunObserver {
     vision::StereoCameraModel model;
     SceneOptions scene_options;
     std::unique_ptr<OsmesaRenderer> renderer;
+    std::unique_ptr<vision::FrameSource> recorded;  // frames from here instead of the renderer
+    bool ended = false;
     cv::VideoWriter video;
     std::filesystem::path video_path;
     SimTime next_tick = 0;
@@ -119,7 +127,13 @@ class CameraRig : public RunObserver {
   std::vector<std::pair<std::string, FrameConsumer>> consumers_;
   std::vector<std::unique_ptr<Camera>> cameras_;
   std::map<std::string, int64_t> frames_;
+  std::map<std::string, std::unique_ptr<vision::FrameSource>> recorded_;
+  bool recorded_ended_ = false;
 };
+
+// `spec` with its intrinsics, image size, baseline and pose replaced by `model`'s: the camera
+// spec of a recorded rig standing where its rig file says.
+CameraSpec camera_spec_from_model(CameraSpec spec, const vision::StereoCameraModel& model);
 
 // Opens any frame source: the vision library's (video:, images:, stereo:) or render:SCENARIO.
 Result<std::unique_ptr<vision::FrameSource>> open_any_frame_source(const std::string& spec,

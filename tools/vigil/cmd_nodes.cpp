@@ -128,7 +128,7 @@ class Pacer : public RunObserver {
 
 void add_camera_node(CLI::App& app) {
   struct Opts {
-    std::string scenario, camera, sensor, out;
+    std::string scenario, camera, sensor, out, source;
     double speed = 0, linger = 2, wait_for_server = 0, epoch = 0;
     std::optional<double> duration;
     DdsOpts dds;
@@ -139,6 +139,9 @@ void add_camera_node(CLI::App& app) {
   cmd->add_option("--camera", o->camera, "the camera this node serves")->required();
   cmd->add_option("--sensor", o->sensor, "vision sensor overriding the camera's plugin (truth, planview, mser)");
   cmd->add_option("--out", o->out, "also write this node's tracks.jsonl and camera_events.jsonl here");
+  cmd->add_option("--source", o->source,
+                  "recorded frames instead of rendered ones: stereo:LEFT,RIGHT,RIG (a rig file with its pose, see "
+                  "docs/RIG.md); one frame per camera tick");
   cmd->add_option("--duration", o->duration, "simulated seconds overriding the scenario's");
   cmd->add_option("--speed", o->speed, "run at most this many times real time (0: as fast as possible)")->capture_default_str();
   cmd->add_option("--wait-for-server", o->wait_for_server, "seconds to wait for a subscriber before starting")->capture_default_str();
@@ -165,6 +168,21 @@ void add_camera_node(CLI::App& app) {
         c.plugin.clear();  // this node serves one camera
       }
     }
+    // A recorded rig in the camera's place: the scenario's camera takes the rig's model and pose.
+    std::unique_ptr<vision::FrameSource> recorded;
+    if (!o->source.empty()) {
+      WorldOptions wo;
+      wo.plugins = builtin_plugin_registry();
+      auto src = render::open_any_frame_source(o->source, wo);
+      if (!src) throw Exit{report(src.error())};
+      if (!(*src)->is_stereo() || !(*src)->camera_model() || !(*src)->has_pose())
+        throw Exit{report(bad_input(o->source, 0, "--source",
+                                    "a camera node needs a calibrated stereo source whose rig file carries the pose "
+                                    "(vigil calibrate floor, or ;pose=X,Y,Z,YAW,PITCH,ROLL); got " + (*src)->describe()))};
+      for (auto& c : sc.cameras)
+        if (c.id == o->camera) c = render::camera_spec_from_model(c, *(*src)->camera_model());
+      recorded = std::move(*src);
+    }
     auto part = participant(o->dds);
     auto pub = dds::CameraEventPublisher::create(*part);
     if (!pub) throw Exit{report(pub.error())};
@@ -174,6 +192,7 @@ void add_camera_node(CLI::App& app) {
     render::CameraRigOptions rig_options;
     rig_options.video = false;
     render::CameraRig rig(rig_options);
+    if (recorded) rig.set_recorded_source(o->camera, std::move(recorded));
     auto host = sensors::VisionSensorHost::create(sc, &rig);
     if (!host) throw Exit{report(host.error())};
     int published = 0;
@@ -197,6 +216,12 @@ void add_camera_node(CLI::App& app) {
     if (!sum) throw Exit{report(sum.error())};
     std::fprintf(stderr, "camera-node %s: %.1f s simulated, %d events published (session %s)\n", o->camera.c_str(),
                  sum->sim_seconds, published, o->dds.session.c_str());
+    if (!o->source.empty()) {
+      const auto it = rig.frames().find(o->camera);
+      std::fprintf(stderr, "camera-node %s: %lld recorded frames from %s%s\n", o->camera.c_str(),
+                   static_cast<long long>(it == rig.frames().end() ? 0 : it->second), o->source.c_str(),
+                   rig.recorded_ended() ? " (the source ended before the run)" : "");
+    }
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o->linger);
     while (!g_stop && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   });

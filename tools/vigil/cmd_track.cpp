@@ -132,6 +132,10 @@ void add_track_command(CLI::App& app) {
                                   "the plan-view pipeline needs a calibrated stereo source with a pose (render:, or "
                                   "stereo:LEFT,RIGHT,CALIBRATION;disparity=sgbm); got " + (*source)->describe()))};
     }
+    if (!(*source)->has_pose())
+      throw Exit{report(bad_input(o->source, 0, "--source",
+                                  "the rig file has no pose over the floor, which map-frame tracks need: run vigil calibrate "
+                                  "floor (docs/RIG.md) or add ;pose=X,Y,Z,YAW,PITCH,ROLL to the source"))};
     std::string camera_id = o->camera_id;
     if (camera_id.empty()) {
       if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) camera_id = r->camera().id;
