@@ -137,6 +137,39 @@ TEST(ActivityRules, LeftBagFiresWhenTheOwnerIsAwayForT) {
   EXPECT_EQ(rules.events().size(), 1u);
 }
 
+TEST(ActivityRules, OwnerIsWhoStoodByTheBagTrackWhenItAppearedEvenIfItIsThenHidden) {
+  // The tracker finds the bag while its owner puts it down (measured, 0.2 s), then only predicts
+  // it for 2.3 s while she steps away in front of it; when it is measured again she is 2.8 m off
+  // and nobody is near the model as it forms. She owns it all the same: she stood by it when it
+  // appeared, and walks off.
+  Actor owner{1, TrackClass::kPerson, Path{{{0, 0, 0}, {4.17, 5, 0}, {4.7, 5, 0}, {30, 5 + 1.2 * (30 - 4.7), 0}}}};
+  // Found while still moving (set down: 0.5 m/s, not yet a lying bag), then held still.
+  Actor bag{100, TrackClass::kBag, Path{{{4.3, 4.8, -0.45}, {4.7, 5, -0.45}, {60, 5, -0.45}}}};
+  bag.seen = [](double t) { return t >= 4.5; };  // found at 4.5 s, already moving
+  bag.measured = [](double t) { return t < 4.7 || t > 7.0; };
+  auto rules = make_rules();
+  const auto events = run(rules, 20, {owner, bag});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[0].people, std::vector<int>{1});
+  // Without the track's first frames (owner_window 0: off), the model forms with nobody near: no owner,
+  // no left bag.
+  ActivityRuleParams p;
+  p.owner_window = 0;
+  auto blind = make_rules(p);
+  const auto none = run(blind, 20, {owner, bag});
+  EXPECT_TRUE(none.empty()) << format_event_json(none.front());
+}
+
+TEST(ActivityRules, PasserByNearABagTrackLaterThanItsFirstSecondsOwnsNothing) {
+  // A bag left by nobody seen (it appears 3 s after the run starts, nobody near); a person walks
+  // past it 4 s later, within 1 m, and on: not its owner, no left bag.
+  Actor bag = bag_at_5(3.0);
+  Actor passer{2, TrackClass::kPerson, Path{{{5, -5, 0.5}, {15, 20, 0.5}}}};
+  auto rules = make_rules();
+  EXPECT_TRUE(run(rules, 30, {bag, passer}).empty());
+}
+
 TEST(ActivityRules, OwnerWhoStaysBesideTheBagRaisesNothing) {
   auto rules = make_rules();
   // Steps about within 2 m of the bag for 40 s.

@@ -321,10 +321,10 @@ TEST_F(RigTest, RecordedFramesWithTheCalibratedRigTrackAsRenderedOnesAndFeedEven
   // put every track off its truth (MOTA near or below 0).
   EXPECT_NEAR(recorded, rendered, 0.15);
 
-  // 4. The recording through a camera node: the left bag goes out over DDS as the rendered
-  //    camera's does.
+  // 4. The recording with the calibrated rig through a camera node: the left bag goes out over
+  //    DDS as the rendered camera's does.
   o = vigil_cmd("camera-node " + scenario("dis_left_bag") + " --camera cam_corridor --sensor planview --source '" +
-                pairs(rec, rec + "/rig.yaml") + "' --duration 23 --linger 0 --session rig" + std::to_string(::getpid()) +
+                pairs(rec, path("rig.yaml")) + "' --duration 23 --linger 0 --session rig" + std::to_string(::getpid()) +
                 " --out " + path("node"));
   ASSERT_EQ(o.code, 0) << o.out;
   EXPECT_NE(o.out.find(std::to_string(frames) + " recorded frames"), std::string::npos) << o.out;

@@ -36,6 +36,7 @@ Status ActivityRuleParams::validate() const {
       {"start_time", start_time, true},                {"person_lost_time", person_lost_time, false},
       {"touch_distance", touch_distance, false},       {"touch_time", touch_time, true},
       {"occluder_radius", occluder_radius, true},      {"robot_radius", robot_radius, true},
+      {"owner_window", owner_window, true},
   };
   for (const auto& c : checks) {
     if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
@@ -150,6 +151,23 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
   for (auto it = people_.begin(); it != people_.end();) {
     it = stamp_ns - it->second.last_seen > 10 * ns(p_.person_lost_time) ? people_.erase(it) : std::next(it);
   }
+  // Who stands nearest to each bag track in its first owner_window seconds (measured frames).
+  for (const Track& t : tracks) {
+    if (t.cls != TrackClass::kBag) continue;
+    BagTrackStart& b = bag_tracks_[t.id];
+    b.last_seen = stamp_ns;
+    if (!t.measured) continue;
+    if (b.first < 0) b.first = stamp_ns;
+    if (p_.owner_window <= 0 || stamp_ns - b.first > ns(p_.owner_window)) continue;
+    for (const auto& [id, p] : people_) {
+      if (p.last_seen != stamp_ns) continue;
+      const double d = dist(p.x, p.y, t.x, t.y);
+      if (d <= p_.owner_distance && d < b.distance) b.distance = d, b.nearest = id;
+    }
+  }
+  for (auto it = bag_tracks_.begin(); it != bag_tracks_.end();) {
+    it = stamp_ns - it->second.last_seen > 10 * ns(p_.person_lost_time) ? bag_tracks_.erase(it) : std::next(it);
+  }
 
   match_objects(stamp_ns, bags, robots);
   std::vector<Event> out;
@@ -220,6 +238,12 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
           o.owner_candidate_distance = d;
           o.owner_candidate = id;
         }
+      }
+      // ...and whoever stood nearest to this bag's track when it appeared.
+      if (auto b = bag_tracks_.find(t->id);
+          b != bag_tracks_.end() && b->second.nearest >= 0 && b->second.distance < o.owner_candidate_distance) {
+        o.owner_candidate_distance = b->second.distance;
+        o.owner_candidate = b->second.nearest;
       }
       if (now - o.first_seen >= ns(p_.object_confirm_time) && o.sightings >= 2) {
         o.confirmed = true;

@@ -8,7 +8,9 @@
 // object_confirm_time; models are kept by place, not by track id, so a tracker that loses a bag
 // and finds it again under a new id still has one object. When a model appears, the nearest
 // person within owner_distance becomes its owner (the chapter: "models will be generated for
-// that bag and for the nearest person"); a model first seen within start_time of the first tick,
+// that bag and for the nearest person"; the bag appears with its track, so the person nearest to
+// the track in its first owner_window seconds counts, as do those near the model while it forms);
+// a model first seen within start_time of the first tick,
 // or with nobody near, has no owner ("present at the beginning of the sequence").
 //
 // Rules.
@@ -66,6 +68,10 @@ struct WatchedObject {
 
 struct ActivityRuleParams {
   double owner_distance = 1.5;       // m: the nearest person this close when a bag appears owns it
+  double owner_window = 1.5;         // s from a bag track's first measured frame during which the
+                                     // person nearest to it is a candidate owner, even while the bag
+                                     // still moves or is then hidden (put down, its owner stepping
+                                     // away in front of it: the model forms with nobody near); 0 = off
   double left_bag_distance = 3.0;    // D (m)
   double left_bag_time = 5.0;        // T (s)
   double exchange_distance = 1.5;    // m between the owner and the taker when the bag goes
@@ -142,6 +148,12 @@ class ActivityRules {
     int64_t since = 0;
     bool reported = false;
   };
+  // A bag track's first frames: who stood nearest to it then (see owner_window).
+  struct BagTrackStart {
+    int64_t first = -1, last_seen = 0;
+    int nearest = -1;
+    double distance = 1e9;
+  };
 
   ActivityRules(const ActivityRuleParams& p, std::string camera, std::optional<StereoCameraModel> model)
       : p_(p), camera_(std::move(camera)), model_(std::move(model)) {}
@@ -159,6 +171,7 @@ class ActivityRules {
   std::optional<StereoCameraModel> model_;
   int64_t first_stamp_ = -1, last_stamp_ = -1;
   std::map<int, Person> people_;
+  std::map<int, BagTrackStart> bag_tracks_;  // by bag track id
   std::vector<ObjectModel> objects_;
   std::map<std::pair<int, size_t>, Visit> visits_;  // (person, watched index)
   std::map<std::pair<int, uint64_t>, Visit> model_visits_;  // (person, object model key)
