@@ -12,6 +12,7 @@
 #include <regex>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "tests/test_util.h"
 #include "vision/stereo_calibration.h"
@@ -141,6 +142,38 @@ TEST_F(RigTest, RenderedChessboardViewsGiveBackTheScenarioCamera) {
     EXPECT_NEAR(k->at<double>(1, 2), truth.K1.at<double>(1, 2), 2.0);
   }
   EXPECT_NEAR(cv::norm(c.T), baseline, 0.01 * baseline);
+  // The same views as two lossless videos (a rig that records video): every frame pair used.
+  {
+    cv::VideoWriter lv(path("left.avi"), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 15, cv::Size(640, 480));
+    cv::VideoWriter rv(path("right.avi"), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 15, cv::Size(640, 480));
+    ASSERT_TRUE(lv.isOpened() && rv.isOpened());
+    for (int i = 0; i < 24; ++i) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/left_%06d.png", i);
+      lv.write(cv::imread(views + name));
+      std::snprintf(name, sizeof name, "/right_%06d.png", i);
+      rv.write(cv::imread(views + name));
+    }
+    lv.write(cv::imread(views + "/left_000000.png"));  // one frame more on the left
+  }
+  const Output video = vigil_cmd("calibrate stereo --left " + path("left.avi") + " --right " + path("right.avi") +
+                                 " --every 1 --board 9x6 --square 0.06 --out " + path("video/rig.yaml"));
+  EXPECT_EQ(video.code, 2) << video.out;  // the left video is one frame longer
+  EXPECT_NE(video.out.find("before the other one"), std::string::npos) << video.out;
+  {
+    cv::VideoWriter lv(path("left.avi"), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('F', 'F', 'V', '1'), 15, cv::Size(640, 480));
+    for (int i = 0; i < 24; ++i) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/left_%06d.png", i);
+      lv.write(cv::imread(views + name));
+    }
+  }
+  const Output video2 = vigil_cmd("calibrate stereo --left " + path("left.avi") + " --right " + path("right.avi") +
+                                  " --every 1 --board 9x6 --square 0.06 --out " + path("video/rig.yaml"));
+  ASSERT_EQ(video2.code, 0) << video2.out;
+  EXPECT_NE(video2.out.find("used 24 of 24 pairs"), std::string::npos) << video2.out;
+  EXPECT_NEAR(printed_rms(video2.out), printed_rms(o.out), 0.01) << video2.out;
+
   std::cout << "round trip: fx " << c.K1.at<double>(0, 0) << " (truth " << fx << "), cx " << c.K1.at<double>(0, 2) << ", cy "
             << c.K1.at<double>(1, 2) << " (truth " << truth.K1.at<double>(0, 2) << ", " << truth.K1.at<double>(1, 2)
             << "), baseline " << cv::norm(c.T) << " m (truth " << baseline << "), RMS " << printed_rms(o.out) << " px\n";

@@ -89,16 +89,63 @@ Status write_rectified_picture(const std::string& path, const vision::StereoCali
   return Status::Ok();
 }
 
+// Two videos of the board: every `every`-th frame pair written as PNG files into `dir` (left_%04d.png,
+// right_%04d.png), which are then calibrated like image pairs. Errors name the video and frame.
+std::pair<std::vector<std::string>, std::vector<std::string>> extract_video_pairs(const std::string& left,
+                                                                                   const std::string& right, int every,
+                                                                                   const fs::path& dir) {
+  auto l = vision::VideoFileSource::open(left);
+  if (!l) {
+    Error e = l.error();
+    e.key = "--left";
+    throw Exit{report(e)};
+  }
+  auto r = vision::VideoFileSource::open(right);
+  if (!r) {
+    Error e = r.error();
+    e.key = "--right";
+    throw Exit{report(e)};
+  }
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Exit{report(bad_input(dir.string(), 0, "--out", "cannot create the folder: " + ec.message()))};
+  std::vector<std::string> lf, rf;
+  vision::StereoFrame a, b;
+  for (int64_t i = 0;; ++i) {
+    auto more_l = (*l)->next(&a);
+    if (!more_l) throw Exit{report(more_l.error())};
+    auto more_r = (*r)->next(&b);
+    if (!more_r) throw Exit{report(more_r.error())};
+    if (*more_l != *more_r)
+      throw Exit{report(bad_input(*more_l ? right : left, 0, *more_l ? "--right" : "--left",
+                                  "the video ends after " + std::to_string(i) + " frames, before the other one"))};
+    if (!*more_l) break;
+    if (i % every != 0) continue;
+    char name[32];
+    std::snprintf(name, sizeof name, "left_%04lld.png", static_cast<long long>(i));
+    lf.push_back((dir / name).string());
+    std::snprintf(name, sizeof name, "right_%04lld.png", static_cast<long long>(i));
+    rf.push_back((dir / name).string());
+    if (!cv::imwrite(lf.back(), a.left) || !cv::imwrite(rf.back(), b.left))
+      throw Exit{report(bad_input(dir.string(), 0, "--out", "cannot write the extracted frames"))};
+  }
+  if (lf.empty()) throw Exit{report(bad_input(left, 0, "--left", "the video has no frames"))};
+  return {lf, rf};
+}
+
 void add_stereo(CLI::App* calibrate) {
   struct Opts {
     std::string left, right, board = "9x6", out, picture, lens = "full";
     double square = 0.025, alpha = 0;
-    int min_pairs = 3, window = 0;
+    int min_pairs = 3, window = 0, every = 15;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = calibrate->add_subcommand("stereo", "Calibrate a stereo rig from chessboard image pairs and write its rig file");
-  cmd->add_option("--left", o->left, "left images: DIR/PATTERN (printf like left%02d.jpg, or a glob)")->required();
-  cmd->add_option("--right", o->right, "right images, in the same order as the left ones")->required();
+  cmd->add_option("--left", o->left, "left images: DIR/PATTERN (printf like left%02d.jpg, or a glob), or a video")->required();
+  cmd->add_option("--right", o->right, "right images, in the same order as the left ones, or a video")->required();
+  cmd->add_option("--every", o->every, "videos: use every N-th frame pair (written beside --out as RIG_frames/)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   cmd->add_option("--board", o->board, "inner corners of the chessboard, COLSxROWS")->capture_default_str();
   cmd->add_option("--square", o->square, "side of a square (m); the baseline comes out in this unit")
       ->capture_default_str()
@@ -127,17 +174,27 @@ void add_stereo(CLI::App* calibrate) {
     board.lens = o->lens == "pinhole"  ? vision::ChessboardParams::LensModel::kPinhole
                  : o->lens == "radial" ? vision::ChessboardParams::LensModel::kRadial
                                        : vision::ChessboardParams::LensModel::kFull;
-    auto left = vision::list_image_files(o->left);
-    if (!left) {
-      Error e = left.error();
-      e.key = "--left";
-      throw Exit{report(e)};
-    }
-    auto right = vision::list_image_files(o->right);
-    if (!right) {
-      Error e = right.error();
-      e.key = "--right";
-      throw Exit{report(e)};
+    Result<std::vector<std::string>> left = std::vector<std::string>{}, right = std::vector<std::string>{};
+    if (!vision::names_images(o->left) && !vision::names_images(o->right)) {
+      const fs::path out = o->out;
+      auto [lf, rf] = extract_video_pairs(o->left, o->right, o->every, out.parent_path() / (out.stem().string() + "_frames"));
+      std::printf("videos: %zu frame pairs (every %d-th) written to %s\n", lf.size(), o->every,
+                  fs::path(lf.front()).parent_path().string().c_str());
+      left = lf;
+      right = rf;
+    } else {
+      left = vision::list_image_files(o->left);
+      if (!left) {
+        Error e = left.error();
+        e.key = "--left";
+        throw Exit{report(e)};
+      }
+      right = vision::list_image_files(o->right);
+      if (!right) {
+        Error e = right.error();
+        e.key = "--right";
+        throw Exit{report(e)};
+      }
     }
     if (left->size() != right->size())
       throw Exit{report(bad_input(o->right, 0, "--right",
