@@ -24,7 +24,8 @@ void add_bench_camera_commands(CLI::App* bench);  // vigil bench render, vigil b
 void add_track_command(CLI::App& app);     // vigil track --source SPEC --pipeline planview --out DIR
 void add_render_command(CLI::App& app);    // vigil render SCENARIO --camera ID --out DIR
 void add_eval_command(CLI::App& app);      // vigil eval RUN_DIR | --mot-gt GT --mot-test TEST
-void add_calibrate_command(CLI::App& app);  // vigil calibrate stereo|floor
+void add_calibrate_command(CLI::App& app);
+void add_gen_command(CLI::App& app);        // vigil gen FAMILY|all --seed S --count N --out DIR  // vigil calibrate stereo|floor
 void add_node_commands(CLI::App& app);     // vigil camera-node, vigil server, vigil events
 void add_bench_dds_commands(CLI::App* bench);  // vigil bench dds, vigil bench dds-echo
 void add_bench_mcl_command(CLI::App* bench);  // vigil bench mcl

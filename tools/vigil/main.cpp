@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   vigil::cli::add_track_command(app);
   vigil::cli::add_eval_command(app);
   vigil::cli::add_calibrate_command(app);
+  vigil::cli::add_gen_command(app);
   vigil::cli::add_node_commands(app);
   try {
     app.parse(argc, argv);
