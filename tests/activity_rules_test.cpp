@@ -389,8 +389,9 @@ TEST(ActivityRules, HandlingWhatWasOnTheMarkedTableAtTheStartIsAnAlert) {
   const auto ev = run(r, 25, {laptop, b});
   ASSERT_EQ(ev.size(), 1u);
   EXPECT_EQ(ev[0].kind, EventKind::kUnauthorisedObject);
-  // B comes within touch_distance (1 m) of it at about 9.2 s; touch_time (1 s) later.
-  EXPECT_NEAR(seconds(ev[0].stamp_ns), 9.2 + ActivityRuleParams{}.touch_time, 0.15);
+  // B comes within touch_distance (1 m) of it at about 9.2 s, still walking; the time counts from
+  // when B stands still beside it (10 s): touch_time (1 s) later.
+  EXPECT_NEAR(seconds(ev[0].stamp_ns), 10.0 + ActivityRuleParams{}.touch_time, 0.15);
   EXPECT_EQ(ev[0].people, std::vector<int>{1});
   EXPECT_EQ(ev[0].object_track, 10);
   EXPECT_NEAR(ev[0].map_position.x, 5.6, 1e-3);

@@ -1,3 +1,5 @@
+#include <cstdio>
+#include <cstdlib>
 #include "vision/activity_rules.h"
 
 #include <algorithm>
@@ -9,6 +11,7 @@ namespace vigil::vision {
 namespace {
 
 constexpr double kNsPerS = 1e9;
+constexpr double kCandidateTime = 1.0;  // s: who stood by a bag in its last measured second may have taken it
 
 int64_t ns(double seconds) { return static_cast<int64_t>(std::llround(seconds * kNsPerS)); }
 
@@ -36,7 +39,8 @@ Status ActivityRuleParams::validate() const {
       {"start_time", start_time, true},                {"person_lost_time", person_lost_time, false},
       {"touch_distance", touch_distance, false},       {"touch_time", touch_time, true},
       {"occluder_radius", occluder_radius, true},      {"robot_radius", robot_radius, true},
-      {"owner_window", owner_window, true},
+      {"owner_window", owner_window, true},            {"person_confirm_time", person_confirm_time, true},
+      {"carry_distance", carry_distance, false},       {"touch_still_speed", touch_still_speed, false},
   };
   for (const auto& c : checks) {
     if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
@@ -67,6 +71,10 @@ Result<ActivityRules> ActivityRules::create(const ActivityRuleParams& params, st
   return ActivityRules(params, std::move(camera), std::move(model));
 }
 
+bool ActivityRules::established(const Person& p, int64_t now) const {
+  return p.last_seen == now && p.sightings >= 2 && now - p.first_seen >= ns(p_.person_confirm_time);
+}
+
 const ActivityRules::Person* ActivityRules::person(int id, int64_t now) const {
   const auto it = people_.find(id);
   if (it == people_.end() || now - it->second.last_seen > ns(p_.person_lost_time)) return nullptr;
@@ -82,7 +90,7 @@ bool ActivityRules::hidden(const ObjectModel& o, int64_t now) const {
   const double len2 = sx * sx + sy * sy;
   if (len2 < 1e-9) return false;
   for (const auto& [id, p] : people_) {
-    if (p.last_seen != now) continue;
+    if (!established(p, now)) continue;
     const double s = ((p.x - c.x()) * sx + (p.y - c.y()) * sy) / len2;  // along the sight line
     if (s <= 0 || s >= 1) continue;
     const double off = std::hypot(c.x() + s * sx - p.x, c.y() + s * sy - p.y);
@@ -133,18 +141,25 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
   last_stamp_ = stamp_ns;
 
   std::vector<const Track*> bags;
+  moving_bags_.clear();
   for (const Track& t : tracks) {
     if (t.cls == TrackClass::kPerson) {
       Person& p = people_[t.id];
+      if (p.sightings == 0 || stamp_ns - p.last_seen > ns(p_.person_lost_time)) p.first_seen = stamp_ns, p.sightings = 0;
+      ++p.sightings;
       p.x = t.x;
       p.y = t.y;
       p.height = t.height > 0 ? t.height : 1.7;
       p.width = t.width > 0 ? t.width : 0.5;
       p.last_seen = stamp_ns;
       p.confidence = t.confidence;
+      p.speed = std::hypot(t.vx, t.vy);
+      p.vx = t.vx, p.vy = t.vy;
     } else if ((t.cls == TrackClass::kBag || (t.cls == TrackClass::kUnknown && in_handling_zone(t.x, t.y))) &&
                std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
       bags.push_back(&t);
+    } else if (t.cls == TrackClass::kBag && t.measured) {
+      moving_bags_.push_back({t.x, t.y, t.id, t.vx, t.vy});
     }
   }
   // People long gone are forgotten (their ids are never reused).
@@ -160,7 +175,7 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
     if (b.first < 0) b.first = stamp_ns;
     if (p_.owner_window <= 0 || stamp_ns - b.first > ns(p_.owner_window)) continue;
     for (const auto& [id, p] : people_) {
-      if (p.last_seen != stamp_ns) continue;
+      if (!established(p, stamp_ns)) continue;
       const double d = dist(p.x, p.y, t.x, t.y);
       if (d <= p_.owner_distance && d < b.distance) b.distance = d, b.nearest = id;
     }
@@ -181,21 +196,62 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
 
 void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& bags,
                                   const std::vector<RobotPosition>& robots) {
-  std::vector<bool> used(objects_.size(), false);
-  for (const Track* t : bags) {
-    // Near a robot: it may be the robot, so it only keeps an object already confirmed in sight
-    // (a robot driving past a left bag), and neither starts nor confirms one.
-    bool near_robot = false;
-    for (const RobotPosition& r : robots) near_robot = near_robot || dist(t->x, t->y, r.x, r.y) <= p_.robot_radius;
-    int best = -1;
-    double best_d = p_.object_match_distance;
-    for (size_t i = 0; i < objects_.size(); ++i) {
-      if (used[i] || (near_robot && !objects_[i].confirmed)) continue;
-      const double d = dist(t->x, t->y, objects_[i].x, objects_[i].y);
-      if (d <= best_d) best_d = d, best = static_cast<int>(i);
+  // Near a robot's reported position a bag track may be the robot itself: it only keeps an
+  // object already confirmed there (a robot driving past a left bag), and neither starts nor
+  // confirms one.
+  auto near_robot = [&](const Track* t) {
+    for (const RobotPosition& r : robots)
+      if (dist(t->x, t->y, r.x, r.y) <= p_.robot_radius) return true;
+    return false;
+  };
+  // Tracks to models, closest pairs first (the model's own track first at equal distance), one
+  // to one: a false detection beside a bag must not take the bag's model from its track.
+  struct Pair {
+    double d;
+    size_t track, model;
+  };
+  std::vector<Pair> pairs;
+  for (size_t ti = 0; ti < bags.size(); ++ti) {
+    const bool robot = near_robot(bags[ti]);
+    for (size_t mi = 0; mi < objects_.size(); ++mi) {
+      if (robot && !objects_[mi].confirmed) continue;
+      const double d = dist(bags[ti]->x, bags[ti]->y, objects_[mi].x, objects_[mi].y);
+      // The model's own track keeps it ahead of any nearer one (a false detection beside a bag
+      // must not take its model).
+      if (d <= p_.object_match_distance) pairs.push_back({d - (bags[ti]->id == objects_[mi].track ? 10.0 : 0.0), ti, mi});
     }
-    if (best < 0 && near_robot) continue;
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return a.d != b.d ? a.d < b.d : a.track != b.track ? a.track < b.track : a.model < b.model;
+  });
+  std::vector<int> model_of(bags.size(), -1);
+  std::vector<bool> used(objects_.size(), false);
+  for (const Pair& p : pairs) {
+    if (model_of[p.track] >= 0 || used[p.model]) continue;
+    model_of[p.track] = static_cast<int>(p.model);
+    used[p.model] = true;
+  }
+  for (size_t ti = 0; ti < bags.size(); ++ti) {
+    const Track* t = bags[ti];
+    int best = model_of[ti];
     if (best < 0) {
+      // The bag of a model not seen on this tick, under the same track id, lying elsewhere: the
+      // object was moved (put down a step further on, picked up and set down again), not a new
+      // one; its model moves with it and keeps its owner.
+      for (size_t mi = 0; mi < objects_.size() && best < 0; ++mi) {
+        if (!used[mi] && objects_[mi].track == t->id && objects_[mi].last_seen != now) {
+          best = static_cast<int>(mi);
+          objects_[mi].sightings = 0;  // the running mean starts again at the new place
+        }
+      }
+    }
+    if (best < 0) {
+      if (near_robot(t)) continue;
+      // A second track on a model's place is the same object seen twice, not a new one.
+      bool duplicate = false;
+      for (const ObjectModel& o : objects_)
+        duplicate = duplicate || dist(t->x, t->y, o.x, o.y) <= p_.object_match_distance;
+      if (duplicate) continue;
       ObjectModel o;
       o.key = next_model_key_++;
       o.x = t->x;
@@ -216,36 +272,51 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
     o.track = t->id;
     o.last_seen = now;
     o.unseen_ns = 0;
-    o.taker = -1;  // seen again: whoever was near did not take it
+    o.gone = false;  // seen again: whoever was near did not take it
+    o.taker = -1;
     // Who stands by it is judged on frames the bag was measured on. A tracker's prediction (a bag
     // track coasting a few frames after its blob went) keeps the model, but by then whoever took
-    // it has walked off with it: the nearest person is the one there when it was last measured.
+    // it has walked off with it: those near it are the ones there when it was last measured.
+    // A detector misses people now and then, so those near it are whoever was within
+    // pickup_distance on any measured frame of the last candidate_time (each at the place they
+    // were last seen), less those since seen farther away.
     if (t->measured) {
-      o.nearest = -1;
-      double nd = p_.pickup_distance;
+      const int64_t keep = ns(kCandidateTime);
+      std::erase_if(o.candidates, [&](const ObjectModel::Candidate& c) {
+        const auto p = people_.find(c.id);
+        return now - c.seen > keep || p == people_.end() ||
+               (p->second.last_seen == now && dist(p->second.x, p->second.y, o.x, o.y) > p_.pickup_distance);
+      });
       for (const auto& [id, p] : people_) {
-        if (p.last_seen != now) continue;
-        const double d = dist(p.x, p.y, o.x, o.y);
-        if (d <= nd) nd = d, o.nearest = id, o.nearest_x = p.x, o.nearest_y = p.y;
+        if (!established(p, now) || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
+        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
+        if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
+        c->x = p.x, c->y = p.y, c->seen = now;
       }
+      const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
+      if (owner && owner->last_seen == now) o.owner_x = owner->x, o.owner_y = owner->y, o.owner_seen_at = now;
+      o.owner_seen = o.owner_seen_at >= 0 && now - o.owner_seen_at <= keep;
     }
     if (!o.confirmed) {
       // Owner candidate: the nearest person while the model forms (on measured frames too).
       for (const auto& [id, p] : people_) {
-        if (p.last_seen != now || !t->measured) continue;
+        if (!established(p, now) || !t->measured) continue;
         const double d = dist(p.x, p.y, o.x, o.y);
         if (d <= p_.owner_distance && d < o.owner_candidate_distance) {
           o.owner_candidate_distance = d;
           o.owner_candidate = id;
         }
       }
-      // ...and whoever stood nearest to this bag's track when it appeared.
-      if (auto b = bag_tracks_.find(t->id);
-          b != bag_tracks_.end() && b->second.nearest >= 0 && b->second.distance < o.owner_candidate_distance) {
+      // ...and whoever stood nearest to this bag's track when it appeared, if the track is new
+      // (a model formed on a track seen for long has its own owner candidates).
+      if (auto b = bag_tracks_.find(t->id); b != bag_tracks_.end() && b->second.nearest >= 0 &&
+                                            o.first_seen - b->second.first <= 2 * ns(p_.owner_window) &&
+                                            b->second.distance < o.owner_candidate_distance) {
         o.owner_candidate_distance = b->second.distance;
         o.owner_candidate = b->second.nearest;
       }
       if (now - o.first_seen >= ns(p_.object_confirm_time) && o.sightings >= 2) {
+        if (getenv("VIGIL_RULES_DEBUG")) fprintf(stderr, "%.2f confirm model %llu at %.2f %.2f owner %d\n", now/1e9, (unsigned long long)o.key, o.x, o.y, o.owner_candidate);
         o.confirmed = true;
         o.at_start = o.first_seen - first_stamp_ <= ns(p_.start_time);
         o.owner = o.at_start ? -1 : o.owner_candidate;
@@ -260,7 +331,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
 
 void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
   for (ObjectModel& o : objects_) {
-    if (!o.confirmed || o.owner < 0 || o.left_event || o.taker >= 0 || in_handling_zone(o.x, o.y)) continue;
+    if (!o.confirmed || o.owner < 0 || o.left_event || o.gone || in_handling_zone(o.x, o.y)) continue;
     const Person* owner = person(o.owner, now);
     const bool attended = owner && dist(owner->x, owner->y, o.x, o.y) <= p_.left_bag_distance;
     if (attended) {
@@ -285,17 +356,25 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
       ++it;
       continue;
     }
-    // Its place is empty only while it is in view and nobody stands in front of it.
+    // Its place is empty only while it is in view and nobody stands in front of it; but a bag
+    // seen carried off by someone who stood by it is gone, hidden place or not.
     if (!hidden(o, now)) o.unseen_ns += dt;
-    if (o.taker < 0) {
-      if (o.unseen_ns < ns(p_.object_gone_time)) {
+    // Carried: the same person beside a moving bag on three ticks running (a bag set down a step
+    // away moves for one tick only).
+    const int with = carrier(o, now);
+    o.carry_ticks = with >= 0 && with == o.carry_who ? o.carry_ticks + 1 : with >= 0 ? 1 : 0;
+    o.carry_who = with;
+    const int carried_by = o.carry_ticks >= 3 ? with : -1;
+    if (!o.gone) {
+      if (o.unseen_ns < ns(p_.object_gone_time) && carried_by < 0) {
         ++it;
         continue;
       }
-      // Gone: the person nearest to it when it was last seen (if still tracked) took it.
-      const int taker = o.nearest >= 0 && person(o.nearest, now) ? o.nearest : -1;
-      if (taker < 0) {
-        // Nobody near: it was not a bag, or it left the view; forget it unless it was reported.
+      // Gone. Someone who stood by it when it was last seen took it, if any of them is still
+      // tracked; nobody near: it was not a bag, or it left the view; forget it.
+      bool any = false;
+      for (const auto& c : o.candidates) any = any || person(c.id, now);
+      if (!any) {
         if (now - o.last_seen > 4 * ns(p_.person_lost_time) + ns(p_.object_gone_time)) {
           it = objects_.erase(it);
         } else {
@@ -303,19 +382,27 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
         }
         continue;
       }
-      o.taker = taker;
-      const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
-      const Person& t = people_.at(taker);
-      o.owner_near_taker = owner && o.owner != taker && dist(owner->x, owner->y, t.x, t.y) <= p_.exchange_distance;
+      o.gone = true;
     }
-    // Taken once the taker moves away from the place (or leaves the view from near it).
-    const Person* t = person(o.taker, now);
-    const bool away = !t || (dist(t->x, t->y, o.x, o.y) >= p_.take_distance &&
-                             dist(t->x, t->y, o.nearest_x, o.nearest_y) >= p_.take_distance / 2);
-    if (!away) {
+    // Who moves off with it: the one a carried bag is seen with, else the first of those who
+    // stood by it to move away from the place (take_distance from it and half that from where
+    // they stood) or out of view.
+    if (o.taker < 0) o.taker = carried_by;
+    if (o.taker < 0 && o.carry_who < 0) {
+      for (const auto& c : o.candidates) {
+        const Person* p = person(c.id, now);
+        if (!p || (dist(p->x, p->y, o.x, o.y) >= p_.take_distance && dist(p->x, p->y, c.x, c.y) >= p_.take_distance / 2)) {
+          o.taker = c.id;
+          break;
+        }
+      }
+    }
+    if (o.taker < 0) {
       ++it;
       continue;
     }
+    const Person* t = person(o.taker, now);
+    if (getenv("VIGIL_RULES_DEBUG")) fprintf(stderr, "%.2f model %llu taker %d owner %d ncand %zu carried %d\n", now/1e9, (unsigned long long)o.key, o.taker, o.owner, o.candidates.size(), carried_by);
     if (o.taker == o.owner) {
       if (o.left_event) {  // the owner came back for it: withdraw the report
         Event e = make_event(EventKind::kLeftBag, now, {o.x, o.y, o.z}, o.confidence);
@@ -327,7 +414,12 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
         out->push_back(e);
       }
     } else {
-      const EventKind kind = o.owner_near_taker ? EventKind::kExchange : EventKind::kBagTaken;
+      // An exchange when the owner stood within exchange_distance of the taker as it went.
+      double tx = 0, ty = 0;
+      for (const auto& c : o.candidates)
+        if (c.id == o.taker) tx = c.x, ty = c.y;
+      const bool handover = o.owner >= 0 && o.owner_seen && dist(o.owner_x, o.owner_y, tx, ty) <= p_.exchange_distance;
+      const EventKind kind = handover ? EventKind::kExchange : EventKind::kBagTaken;
       const double conf = o.confidence * (t ? std::max(0.5, t->confidence) : 0.5);
       Event e = make_event(kind, now, {o.x, o.y, o.z}, conf);
       e.object_track = o.track;
@@ -336,6 +428,27 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
     }
     it = objects_.erase(it);
   }
+}
+
+int ActivityRules::carrier(const ObjectModel& o, int64_t now) const {
+  int who = -1;
+  double best = p_.carry_distance;
+  for (const Spot& b : moving_bags_) {
+    if (b.track != o.track) {
+      const auto bt = bag_tracks_.find(b.track);
+      if (bt == bag_tracks_.end() || bt->second.first < o.last_seen - ns(p_.object_gone_time)) continue;
+    }
+    if (dist(b.x, b.y, o.x, o.y) > p_.pickup_distance + p_.take_distance + 1.0) continue;
+    for (const auto& c : o.candidates) {
+      const Person* p = person(c.id, now);
+      if (!p || p->last_seen != now) continue;
+      // ...and moving with it: someone standing beside a bag carried past is not its carrier.
+      if (std::hypot(b.vx - p->vx, b.vy - p->vy) > std::max(p_.object_still_speed, 0.5 * std::hypot(b.vx, b.vy))) continue;
+      const double d = dist(b.x, b.y, p->x, p->y);
+      if (d <= best) best = d, who = c.id;
+    }
+  }
+  return who;
 }
 
 void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
@@ -361,6 +474,7 @@ void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
     }
     auto vit = visits_.try_emplace(key, Visit{now, false}).first;
     Visit& v = vit->second;
+    if (p.speed > p_.touch_still_speed) v.since = now;  // walking past: the time starts when they stop
     if (v.reported || now - v.since < ns(p_.touch_time)) continue;
     v.reported = true;
     const WatchedObject& w = p_.watched[nearest];
@@ -408,6 +522,7 @@ void ActivityRules::rule_zone_touch(int64_t now, std::vector<Event>* out) {
       continue;
     }
     Visit& v = model_visits_.try_emplace({id, nearest->key}, Visit{now, false}).first->second;
+    if (p.speed > p_.touch_still_speed) v.since = now;
     if (v.reported || now - v.since < ns(p_.touch_time)) continue;
     v.reported = true;
     if (nearest->owner == id) continue;  // their own

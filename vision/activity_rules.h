@@ -84,11 +84,16 @@ struct ActivityRuleParams {
   double start_time = 1.0;           // s: models first seen this soon after the first tick were there at the start
   double person_lost_time = 1.0;     // s: a person track unseen this long is gone
   double touch_distance = 1.0;       // m from a person's centre to a marked object
-  double touch_time = 1.0;           // s within touch_distance
+  double touch_time = 1.0;           // s within touch_distance, standing (not walking past)
+  double touch_still_speed = 0.4;    // m/s: a person faster than this walks past, handles nothing
   double occluder_radius = 0.3;      // m: a person this close to the line of sight hides an object
-  double robot_radius = 0.8;         // m: a bag track this close to a robot's reported position may be
-                                     // that robot (a far robot whose mast the camera does not resolve
-                                     // looks like a bag): it does not start or confirm an object model
+  double robot_radius = 0.5;         // m: a bag track this close to a robot's reported position (the
+                                     // robot's own footprint and its localisation error) is that robot
+                                     // (a far robot whose mast the camera does not resolve looks like a
+                                     // bag): it does not start or confirm an object model. A bag beside
+                                     // a stopped robot lies farther out and is an object like any other
+  double person_confirm_time = 0.3;  // s a person track must last before it can own, take or hide a bag
+  double carry_distance = 0.8;       // m: a moving bag track this close to a person is carried by them
   std::vector<WatchedObject> watched;
   std::vector<HandlingZone> handling_zones;
   double zone_margin = 0.3;          // m around a zone that still counts as on it
@@ -130,10 +135,20 @@ class ActivityRules {
     int64_t owner_away_since = -1;
     uint64_t left_event = 0;       // id of its left-bag event, 0 = none
     int64_t unseen_ns = 0;         // visible-and-empty time since last seen
-    int nearest = -1;              // the nearest person within pickup_distance when last seen
-    double nearest_x = 0, nearest_y = 0;  // where they stood then
-    int taker = -1;                // that person once it has gone, -1 = not gone
-    bool owner_near_taker = false; // the owner was within exchange_distance of the taker then
+    // Everyone within pickup_distance of it when it was last measured, and where they stood:
+    // who may have picked it up.
+    struct Candidate {
+      int id = -1;
+      double x = 0, y = 0;
+      int64_t seen = 0;
+    };
+    std::vector<Candidate> candidates;
+    double owner_x = 0, owner_y = 0;  // where the owner stood then
+    bool owner_seen = false;          // ...if tracked then
+    int64_t owner_seen_at = -1;
+    bool gone = false;             // its place has been seen empty for object_gone_time
+    int taker = -1;                // who moved off with it once gone, -1 = not known yet
+    int carry_who = -1, carry_ticks = 0;  // who a moving bag is seen with, on how many ticks running
     double confidence = 0;         // mean confidence of its sightings
   };
   const std::vector<ObjectModel>& objects() const { return objects_; }
@@ -141,9 +156,15 @@ class ActivityRules {
  private:
   struct Person {
     double x = 0, y = 0, height = 1.7, width = 0.5;
-    int64_t last_seen = 0;
+    int64_t first_seen = 0, last_seen = 0;
+    int sightings = 0;
     double confidence = 0;
+    double speed = 0;  // m/s, as the tracker gives it
+    double vx = 0, vy = 0;
   };
+  // A person track seen on this tick that has lasted person_confirm_time: a single-frame false
+  // detection owns nothing, takes nothing and hides nothing.
+  bool established(const Person& p, int64_t now) const;
   struct Visit {
     int64_t since = 0;
     bool reported = false;
@@ -180,6 +201,16 @@ class ActivityRules {
   bool in_handling_zone(double x, double y) const;
   std::vector<Event> events_;
   uint64_t next_event_id_ = 1;
+  struct Spot {
+    double x = 0, y = 0;
+    int track = -1;
+    double vx = 0, vy = 0;
+  };
+  std::vector<Spot> moving_bags_;  // bag tracks of this tick that move (carried)
+  // The candidate who is seen carrying the model's bag off: a moving bag track within
+  // carry_distance of them that is the model's own track, or one that appeared only as the
+  // model went (not a bag someone carried in past it). -1 none.
+  int carrier(const ObjectModel& o, int64_t now) const;
 };
 
 }  // namespace vigil::vision

@@ -28,6 +28,7 @@ constexpr double kLabDoorX = 12.0;
 constexpr double kTableX = 12.0, kTableY = 8.5, kTableSX = 1.8, kTableSY = 0.9;
 constexpr double kLaptopX = 12.6, kLaptopY = 8.55;
 constexpr double kLeftBagDistance = 3.0, kLeftBagTime = 5.0;
+constexpr int kAttempts = 200;  // draws per scenario before giving up
 constexpr double kHand = 1.0;  // s a pick-up, put-down or touch takes (the scenario default)
 
 struct Vec {
@@ -41,7 +42,7 @@ struct ViewCamera {
   double x = 0, y = 0, z = 2.5, yaw = 0, pitch = 0;
   double hfov = deg(60);
   int width = 640, height = 480;
-  double max_range = 7.0;  // m on the floor: inside the ground-truth sensor's 8 m, with margin
+  double max_range = 7.5;  // m on the floor: inside the ground-truth sensor's 8 m, with margin
   double min_range = 2.0;
 
   bool project(double px, double py, double pz, double* u, double* v) const {
@@ -97,18 +98,34 @@ struct Actor {
   std::optional<double> appear_at;
   std::vector<std::string> steps;
   double t = 0;  // estimated time the last step ends
+  struct Leg {
+    Vec from, to;
+    double t0, t1;  // estimated start and end (s)
+  };
+  std::vector<Leg> segments;  // straight legs walked (planned paths bend around walls only)
+  std::vector<Vec> waits;                     // where they stand a while (a wait, a step held back by `at`)
 
   void walk(Vec to, std::optional<double> at = std::nullopt) {
     std::string s = "      - walk_to: " + pt(to);
+    if (at && steps.empty() && (!appear_at || *appear_at <= *at)) {
+      // Held back before the first step: appear then instead of standing there from the start.
+      appear_at = *at;
+      t = std::max(t, *at);
+      at.reset();
+    }
+    if (at) waits.push_back(pos);
     if (at) {
       s += "\n        at: " + fmt(*at);
       t = std::max(t, *at);
     }
     steps.push_back(s);
+    const double t0 = t;
     t += 1.15 * dist(pos, to) / speed + 0.3;  // planned paths bend a little; turning
+    segments.push_back({pos, to, t0, t});
     pos = to;
   }
   void wait(double seconds) {
+    waits.push_back(pos);
     steps.push_back("      - wait: " + fmt(seconds));
     t += seconds;
   }
@@ -123,15 +140,20 @@ struct Actor {
     }
     steps.push_back(s);
     const double reach = std::max(0.0, dist(pos, where) - 0.55);
+    const double t0 = t;
     t += 1.15 * reach / speed + duration;
     if (reach > 0) {  // walked up beside it
       const double f = reach / dist(pos, where);
-      pos = {pos.x + f * (where.x - pos.x), pos.y + f * (where.y - pos.y)};
+      const Vec to{pos.x + f * (where.x - pos.x), pos.y + f * (where.y - pos.y)};
+      segments.push_back({pos, to, t0, t - duration});
+      pos = to;
     }
   }
   void leave(Vec to) {
     steps.push_back("      - leave: " + pt(to));
+    const double t0 = t;
     t += 1.15 * dist(pos, to) / speed;
+    segments.push_back({pos, to, t0, t});
     pos = to;
   }
   std::string yaml() const {
@@ -257,12 +279,14 @@ class Draw {
     }
     return {west ? kCorridorXMin : kCorridorXMax, 3.1};
   }
-  // Which ways a person can leave a bag at `q` and be out of the rules' reach (left_bag_distance)
-  // while still in view (so that "gone from view" and "far away" agree): 0 none, 1 west, 2 east, 3 both.
+  // Which ways a person can leave a bag at `q` and stay in view until nearly out of the rules'
+  // reach (left_bag_distance less 0.8 m: a camera cannot know how far someone out of view has
+  // gone, and the rules count an owner lost for person_lost_time (1 s) as away; walking the
+  // last 0.8 m takes about as long): 0 none, 1 west, 2 east, 3 both.
   int exit_sides(Vec q) const {
     int s = 0;
-    if (q.x - lo_ >= kLeftBagDistance + 0.8) s |= 1;
-    if (hi_ - q.x >= kLeftBagDistance + 0.8) s |= 2;
+    if (q.x - lo_ >= kLeftBagDistance - 0.8) s |= 1;
+    if (hi_ - q.x >= kLeftBagDistance - 0.8) s |= 2;
     return s;
   }
   bool side_west(int sides) {
@@ -307,11 +331,55 @@ class Draw {
     return robots_.back();
   }
 
-  void on_floor(Vec p) { floor_objects_.push_back(p); }
+  void on_floor(Vec p, double t = 0) { floor_objects_.push_back({p, t}); }
+  // The bag at p is picked up at t.
+  void off_floor(Vec p, double t) {
+    for (FloorObject& f : floor_objects_)
+      if (dist(f.at, p) < 1e-6) f.t1 = t;
+  }
   // Clear of every bag on the floor by a person's radius, the bag's half-diagonal and a margin
   // (a walk target the person cannot reach for a bag in the way would stall the script).
   bool clear(Vec p) const {
-    return std::all_of(floor_objects_.begin(), floor_objects_.end(), [&](Vec q) { return dist(p, q) >= 0.8; });
+    return std::all_of(floor_objects_.begin(), floor_objects_.end(), [&](const FloorObject& f) { return dist(p, f.at) >= 0.8; });
+  }
+  // People walk the paths planned on the map: a bag or a stopped robot on the floor is in their
+  // way, and a leg that passes through one (nearer than a person's radius and the thing's half
+  // size, somewhere between its ends) would stall the script. Legs that start or end beside
+  // one (putting a bag down, walking off from it) are fine.
+  bool paths_clear() const {
+    auto seg_dist = [](Vec a, Vec b, Vec q, bool* interior) {
+      const double vx = b.x - a.x, vy = b.y - a.y, l2 = vx * vx + vy * vy;
+      const double s = l2 > 1e-12 ? std::clamp(((q.x - a.x) * vx + (q.y - a.y) * vy) / l2, 0.0, 1.0) : 0.0;
+      *interior = s > 0.0 && s < 1.0;
+      return std::hypot(a.x + s * vx - q.x, a.y + s * vy - q.y);
+    };
+    struct Thing {
+      Vec at;
+      double clearance, t0, t1;
+    };
+    std::vector<Thing> things;
+    for (const FloorObject& f : floor_objects_) things.push_back({f.at, 0.5, f.t0, f.t1});
+    for (const Robot& r : robots_)
+      if (r.points.size() == 1) things.push_back({r.points.back(), 0.6, 0.0, 1e9});
+    for (const Actor& a : people_)
+      for (const auto& leg : a.segments)
+        for (const Thing& th : things) {
+          if (leg.t1 < th.t0 - 1.0 || leg.t0 > th.t1 + 1.0) continue;  // not there then (estimates: a margin)
+          bool interior = false;
+          const double d = seg_dist(leg.from, leg.to, th.at, &interior);
+          if (interior && d < th.clearance && dist(leg.from, th.at) > d + 0.05 && dist(leg.to, th.at) > d + 0.05) return false;
+        }
+    // Where someone stands and waits, nobody else stands (two people walking to one spot wait
+    // for each other for ever); walking past a standing person is fine, they step aside.
+    for (size_t i = 0; i < people_.size(); ++i)
+      for (size_t j = 0; j < people_.size(); ++j) {
+        if (i == j) continue;
+        for (Vec w : people_[i].waits) {
+          for (Vec v : people_[j].waits)
+            if (dist(w, v) < 0.8) return false;
+        }
+      }
+    return true;
   }
   std::vector<Actor>& people() { return people_; }
   std::vector<Object>& objects() { return objects_; }
@@ -381,7 +449,11 @@ class Draw {
   std::vector<Robot> robots_;
   bool handling_zone_ = false;
   std::string summary_;
-  std::vector<Vec> floor_objects_;  // bags on the floor: standing points keep clear of them
+  struct FloorObject {
+    Vec at;
+    double t0 = 0, t1 = 1e9;  // estimated time it lies there
+  };
+  std::vector<FloorObject> floor_objects_;  // bags on the floor: standing points keep clear of them
 
  public:
   void reserve() {
@@ -408,7 +480,7 @@ std::optional<Drop> carry_in(Draw& d, Actor& a, Object& bag, std::optional<doubl
     if (!r.sides) continue;
     a.walk(*stand, at);
     a.hand("put_down", bag.id, q, q);
-    d.on_floor(q);
+    d.on_floor(q, a.t);
     return r;
   }
   return std::nullopt;
@@ -456,6 +528,7 @@ bool fam_bag_taken(Draw& d) {
   const double lead = dist(b.pos, by) / b.speed * 1.15;
   b.walk(by, std::max(0.0, t_b - lead));
   b.hand("pick_up", bag.id, drop->bag);
+  d.off_floor(drop->bag, b.t);
   const bool b_exit_west = d.side_west(d.exit_sides(drop->bag) ? d.exit_sides(drop->bag) : 3);
   walk_off(d, b, b_exit_west);
   d.note(a.id + " leaves " + bag.id + " at " + pt(drop->bag) + "; " + b.id + " takes it " +
@@ -481,6 +554,7 @@ bool fam_exchange(Draw& d) {
   const double lead = dist(b.pos, *by) / b.speed * 1.15;
   b.walk(*by, std::max(0.0, t_b - lead));
   b.hand("pick_up", bag.id, drop->bag);
+  d.off_floor(drop->bag, b.t);
   const double t_pick = b.t;
   const bool b_west = d.chance(0.5);
   walk_off(d, b, b_west);
@@ -516,6 +590,7 @@ bool fam_owner_returns(Draw& d) {
   a.walk(away);
   a.wait(long_away ? d.u(kLeftBagTime + 1.5, kLeftBagTime + 10) : d.u(0.0, 0.8));
   a.hand("pick_up", bag.id, drop->bag);
+  d.off_floor(drop->bag, a.t);
   walk_off(d, a, d.chance(0.5));
   d.note(a.id + " leaves " + bag.id + " at " + pt(drop->bag) + ", walks to " + pt(away) + (in_view ? " (in view)" : " (out of view)") +
          (long_away ? ", stays away" : ", turns back at once") + " and takes it back");
@@ -535,6 +610,7 @@ bool fam_owner_stays(Draw& d) {
     a.wait(d.u(2.0, 7.0));
   }
   a.hand("pick_up", bag.id, drop->bag);
+  d.off_floor(drop->bag, a.t);
   walk_off(d, a, d.chance(0.5));
   d.note(a.id + " puts " + bag.id + " down at " + pt(drop->bag) + ", stays within " + fmt(kLeftBagDistance - 0.7) +
          " m for " + std::to_string(moves) + " moves and takes it");
@@ -588,14 +664,8 @@ bool fam_two_carriers(Draw& d) {
   if (!da) return false;
   Actor& b = d.person(d.off_view(d.chance(0.5)), d.u(0.0, 4.0));
   Object& bag_b = d.bag(b.id);
-  std::optional<Drop> db;
-  for (int i = 0; i < 20 && (!db || dist(db->bag, da->bag) < 2.0); ++i) {
-    b.steps.clear();
-    b.pos = b.start;
-    b.t = *b.appear_at;
-    db = carry_in(d, b, bag_b);
-  }
-  if (!db || dist(db->bag, da->bag) < 2.0) return false;
+  const std::optional<Drop> db = carry_in(d, b, bag_b);
+  if (!db || dist(db->bag, da->bag) < 1.5) return false;
   walk_off(d, a, d.side_west(da->sides));
   const bool both = d.chance(0.4);
   if (both) {
@@ -604,6 +674,7 @@ bool fam_two_carriers(Draw& d) {
     if (auto p = d.near(db->bag, 0.8, 1.4)) b.walk(*p);
     b.wait(d.u(kLeftBagTime + 1, kLeftBagTime + 6));
     b.hand("pick_up", bag_b.id, db->bag);
+    d.off_floor(db->bag, b.t);
     walk_off(d, b, d.chance(0.5));
   }
   d.note(a.id + " leaves " + bag_a.id + " at " + pt(da->bag) + "; " + b.id + " puts " + bag_b.id + " at " + pt(db->bag) +
@@ -676,6 +747,15 @@ void out_of_lab(Draw& d, Actor& a) {
   a.leave({d.chance(0.5) ? 5.0 : 19.0, 3.1});
 }
 
+// Walks up to the table's long side next to a spot on it (the side away from the lab camera
+// mostly), as a person does before handling something there.
+void step_up_to(Draw& d, Actor& a, Vec spot) {
+  const bool north = d.chance(0.2);
+  const Vec side{std::clamp(spot.x + d.u(-0.15, 0.15), kTableX - kTableSX / 2 + 0.1, kTableX + kTableSX / 2 - 0.1),
+                 north ? kTableY + kTableSY / 2 + 0.4 : kTableY - kTableSY / 2 - 0.4};
+  if (dist(a.pos, side) > 0.2) a.walk(side);
+}
+
 std::vector<std::string> bring_objects(Draw& d, Actor& a, int n, std::vector<Vec>* where) {
   static const char* kinds[] = {"book", "bottle", "box"};
   std::vector<std::string> ids;
@@ -693,9 +773,10 @@ std::vector<std::string> bring_objects(Draw& d, Actor& a, int n, std::vector<Vec
     Vec p;
     bool ok = false;
     for (int k = 0; k < 50 && !ok; ++k) {
-      p = d.table_spot(0.6);
+      p = d.table_spot(0.85);
       ok = std::all_of(where->begin(), where->end(), [&](Vec q) { return dist(p, q) > 0.35; });
     }
+    step_up_to(d, a, p);
     a.hand("put_down", id, p, p);
     where->push_back(p);
   }
@@ -723,12 +804,17 @@ bool fam_lab_own(Draw& d) {
   std::vector<Vec> where;
   const auto ids = bring_objects(d, b, 1 + d.pick(2), &where);
   for (size_t i = 0; i < ids.size(); ++i) {
-    if (d.chance(0.6)) b.hand("touch", ids[i], where[i], std::nullopt, d.u(1.5, 3.5));
+    if (d.chance(0.6)) {
+      step_up_to(d, b, where[i]);
+      b.hand("touch", ids[i], where[i], std::nullopt, d.u(1.5, 3.5));
+    }
   }
   if (d.chance(0.5)) {
     const int i = d.pick(static_cast<int>(ids.size()));
+    step_up_to(d, b, where[i]);
     b.hand("pick_up", ids[i], where[i], std::nullopt, 1.5);
-    const Vec p = d.table_spot(0.6);
+    const Vec p = d.table_spot(0.85);
+    step_up_to(d, b, p);
     b.hand("put_down", ids[i], p, p);
     where[i] = p;
   }
@@ -746,7 +832,10 @@ bool fam_lab_other(Draw& d) {
   into_lab(b);
   std::vector<Vec> where;
   const auto ids = bring_objects(d, b, 1 + d.pick(2), &where);
-  if (d.chance(0.4)) b.hand("touch", ids[0], where[0], std::nullopt, d.u(1.5, 3.0));
+  if (d.chance(0.4)) {
+    step_up_to(d, b, where[0]);
+    b.hand("touch", ids[0], where[0], std::nullopt, d.u(1.5, 3.0));
+  }
   out_of_lab(d, b);
   // Someone else comes in later and handles one of B's things, or the laptop.
   const Vec c_from = lab_entry_from(d);
@@ -756,8 +845,10 @@ bool fam_lab_other(Draw& d) {
   into_lab(c);
   const int i = d.pick(static_cast<int>(ids.size()));
   if (the_laptop) {
+    step_up_to(d, c, {kLaptopX, kLaptopY});
     c.hand("touch", "laptop", {kLaptopX, kLaptopY}, std::nullopt, d.u(1.5, 3.0));
   } else {
+    step_up_to(d, c, where[i]);
     c.hand("touch", ids[i], where[i], std::nullopt, d.u(1.5, 3.0));
   }
   out_of_lab(d, c);
@@ -824,10 +915,11 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
   // Each scenario draws from its own stream; a draw that does not fit (no place in view, a script
   // the parser refuses) is drawn again from the next attempt's stream.
   std::string last_error;
-  for (int attempt = 0; attempt < 40; ++attempt) {
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
     Draw d(Rng::stream(o.seed, o.family + "/" + std::to_string(o.index) + "/" + std::to_string(attempt)), o);
     d.reserve();
-    if (!fam->draw(d)) continue;
+    if (!fam->draw(d)) { if (getenv("GEN_DEBUG")) fprintf(stderr, "draw failed\n"); continue; }
+    if (!d.paths_clear()) { if (getenv("GEN_DEBUG")) fprintf(stderr, "paths\n"); continue; }
     g.text = d.yaml(g.name, o.family);
     g.summary = d.summary();
     auto parsed = parse_scenario(g.text, o.out_dir / (g.name + ".yaml"));
@@ -838,7 +930,7 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
     if (parsed.error().kind != ErrorKind::kBadInput || key == "map" || key.find("urdf") != std::string::npos)
       return parsed.error();
   }
-  return bad_input("", 0, "family", "no valid '" + o.family + "' scenario in 40 draws for seed " + std::to_string(o.seed) +
+  return bad_input("", 0, "family", "no valid '" + o.family + "' scenario in " + std::to_string(kAttempts) + " draws for seed " + std::to_string(o.seed) +
                                         " index " + std::to_string(o.index) + (last_error.empty() ? "" : "; last: " + last_error));
 }
 
