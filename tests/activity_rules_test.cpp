@@ -257,6 +257,45 @@ TEST(ActivityRules, HandOverWithTheOwnerBesideIsAnExchange) {
   EXPECT_EQ(events[0].people, (std::vector<int>{1, 2}));
 }
 
+// The case: the owner stands right beside her bag (nearer to it than the taker), a second
+// person picks it up and walks off with it, the owner then walks off too. The bag's track is seen
+// moving with the taker (a tracker that follows a carried bag): that person took it.
+TEST(ActivityRules, OwnerRightBesideWhileAnotherCarriesItOffIsAnExchange) {
+  auto rules = make_rules();
+  Actor owner{1, TrackClass::kPerson, Path{{{0, 0, 0}, {4.17, 5, 0}, {14, 5, 0}, {20, 12, 0}}}};  // 0.45 m from the bag
+  Actor other{2, TrackClass::kPerson, Path{{{5, 10, -0.5}, {9, 5.8, -0.6}, {10, 5.8, -0.6}, {15, 0, -0.6}}}};  // 0.83 m
+  // The bag lies at (5, -0.45) until 10 s, then moves with person 2 (0.3 m to their side).
+  Actor bag{100, TrackClass::kBag, Path{{{4.5, 5, -0.45}, {10, 5, -0.45}, {10.07, 5.8, -0.3}, {15, 0, -0.3}}}};
+  const auto events = run(rules, 22, {owner, other, bag});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kExchange);
+  EXPECT_EQ(events[0].people, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(seconds(events[0].stamp_ns), 10.3, 0.4) << "as it is carried off, not when the owner walks away";
+  // Without the carried track (the bag merges into the taker's blob), the first of those by it
+  // to walk away took it: the same answer.
+  auto blind = make_rules();
+  Actor bag_then_gone{100, TrackClass::kBag, Path{{{4.5, 5, -0.45}, {10, 5, -0.45}}}};
+  const auto e2 = run(blind, 22, {owner, other, bag_then_gone});
+  ASSERT_EQ(e2.size(), 1u);
+  EXPECT_EQ(e2[0].kind, EventKind::kExchange);
+  EXPECT_EQ(e2[0].people, (std::vector<int>{1, 2}));
+}
+
+// A single-frame false person track beside a bag as it is put down owns nothing: the owner is
+// the person who carried it in.
+TEST(ActivityRules, ABagSeenCarriedInIsItsCarriersWhoeverStandsNearer) {
+  auto rules = make_rules();
+  // Person 1 carries the bag in (the bag's track moves with them) and sets it down at 4.5 s;
+  // person 2 walks up and stands right by it, nearer than person 1, from 3 s to 12 s.
+  Actor carried{100, TrackClass::kBag, Path{{{0, 0, -0.3}, {4.17, 5, -0.3}, {4.5, 5, -0.45}, {60, 5, -0.45}}}};
+  Actor passer{2, TrackClass::kPerson, Path{{{0, 9, -1}, {3, 5.2, -0.75}, {12, 5.2, -0.75}, {20, 5.2, -8}}}};
+  Actor flicker{50, TrackClass::kPerson, Path{{{4.6, 5.1, -0.5}, {4.62, 5.1, -0.5}}}};  // one frame
+  const auto events = run(rules, 25, {owner_walks_off(), carried, passer, flicker});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[0].people, std::vector<int>{1}) << "the carrier, not the one who stood nearer";
+}
+
 TEST(ActivityRules, BagPresentAtTheStartTakenByAnyoneIsBagTaken) {
   auto rules = make_rules();
   Actor person{7, TrackClass::kPerson, Path{{{0, 0, 3}, {5, 4.8, 0.3}, {6, 4.8, 0.3}, {10, 0, 3}}}};
@@ -353,6 +392,21 @@ TEST(ActivityRules, RobotSeenAsABagAtItsReportedPlaceIsNoObject) {
   auto far = make_rules();
   const Robots away = [](double) { return std::vector<ActivityRules::RobotPosition>{{0, -3}}; };
   EXPECT_EQ(run(far, 20, {owner_walks_off(), robot_as_bag}, away).size(), 1u);
+}
+
+// The case: a robot stops beside the place where a bag is then left (0.7 m off, its own
+// footprint and localisation error well clear of the bag). The bag is left as without the robot;
+// only a bag track at the robot's reported place is taken for the robot.
+TEST(ActivityRules, ABagLeftBesideAStoppedRobotIsALeftBag) {
+  auto plain = make_rules();
+  const auto expected = run(plain, 20, {owner_walks_off(), bag_at_5()});
+  ASSERT_EQ(expected.size(), 1u);
+  const Robots stopped = [](double) { return std::vector<ActivityRules::RobotPosition>{{5.7, -0.45}}; };
+  auto rules = make_rules();
+  const auto events = run(rules, 20, {owner_walks_off(), bag_at_5()}, stopped);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[0].stamp_ns, expected[0].stamp_ns);
 }
 
 // A robot driving right past a bag already left keeps the bag: the report comes as without it.

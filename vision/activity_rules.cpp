@@ -173,6 +173,20 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
     b.last_seen = stamp_ns;
     if (!t.measured) continue;
     if (b.first < 0) b.first = stamp_ns;
+    // Carried by whom: the nearest person it moves with.
+    int with = -1;
+    if (std::hypot(t.vx, t.vy) > p_.object_still_speed) {
+      double best = p_.carry_distance;
+      for (const auto& [id, p] : people_) {
+        if (!established(p, stamp_ns)) continue;
+        if (std::hypot(t.vx - p.vx, t.vy - p.vy) > std::max(p_.object_still_speed, 0.5 * std::hypot(t.vx, t.vy))) continue;
+        const double d = dist(p.x, p.y, t.x, t.y);
+        if (d <= best) best = d, with = id;
+      }
+    }
+    b.carry_ticks = with >= 0 && with == b.carry_who ? b.carry_ticks + 1 : with >= 0 ? 1 : 0;
+    b.carry_who = with;
+    if (b.carry_ticks >= 3) b.carrier = with;
     if (p_.owner_window <= 0 || stamp_ns - b.first > ns(p_.owner_window)) continue;
     for (const auto& [id, p] : people_) {
       if (!established(p, stamp_ns)) continue;
@@ -314,6 +328,11 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
                                             b->second.distance < o.owner_candidate_distance) {
         o.owner_candidate_distance = b->second.distance;
         o.owner_candidate = b->second.nearest;
+      }
+      // ...but a bag seen carried in is the carrier's, whoever stands nearer when it is set down.
+      if (auto b = bag_tracks_.find(t->id); b != bag_tracks_.end() && b->second.carrier >= 0) {
+        o.owner_candidate = b->second.carrier;
+        o.owner_candidate_distance = -1;
       }
       if (now - o.first_seen >= ns(p_.object_confirm_time) && o.sightings >= 2) {
         if (getenv("VIGIL_RULES_DEBUG")) fprintf(stderr, "%.2f confirm model %llu at %.2f %.2f owner %d\n", now/1e9, (unsigned long long)o.key, o.x, o.y, o.owner_candidate);

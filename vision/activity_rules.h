@@ -174,6 +174,10 @@ class ActivityRules {
     int64_t first = -1, last_seen = 0;
     int nearest = -1;
     double distance = 1e9;
+    // Who carried it last: the person it moved with (within carry_distance, at their velocity)
+    // on three measured ticks running; -1 none seen.
+    int carrier = -1;
+    int carry_who = -1, carry_ticks = 0;
   };
 
   ActivityRules(const ActivityRuleParams& p, std::string camera, std::optional<StereoCameraModel> model)

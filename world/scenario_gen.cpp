@@ -880,6 +880,29 @@ const std::vector<FamilyEntry>& families() {
   return f;
 }
 
+// Runs the scenario headless: ok when everyone has left by its end; bad input naming who did
+// not (stuck) otherwise.
+Status completes(const Scenario& scenario, const WorldOptions& options) {
+  WorldOptions wo = options;
+  if (!wo.plugins) wo.controllers = false;
+  auto world = World::create(scenario, wo);
+  if (!world) return world.error();
+  World& w = **world;
+  auto all_gone = [&] {
+    for (const auto& p : w.people())
+      if (!p.gone) return false;
+    return true;
+  };
+  while (!w.finished() && !all_gone()) {
+    if (Status s = w.advance(); !s) return s;
+  }
+  std::string stuck;
+  for (const auto& p : w.people())
+    if (!p.gone) stuck += (stuck.empty() ? "" : ", ") + p.spec.id;
+  if (!stuck.empty()) return bad_input(scenario.file.string(), 0, "people", "did not finish their scripts: " + stuck);
+  return Status::Ok();
+}
+
 }  // namespace
 
 const std::vector<std::string>& scenario_families() {
@@ -923,7 +946,14 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
     g.text = d.yaml(g.name, o.family);
     g.summary = d.summary();
     auto parsed = parse_scenario(g.text, o.out_dir / (g.name + ".yaml"));
-    if (parsed) return g;
+    if (parsed) {
+      if (!o.dry_run) return g;
+      Status s = completes(*parsed, o.world);
+      if (s) return g;
+      if (s.error().kind != ErrorKind::kBadInput) return s.error();
+      last_error = s.error().str();
+      continue;
+    }
     last_error = parsed.error().str();
     // An internal error, or the map or robot model itself failing, is not a matter of drawing again.
     const std::string& key = parsed.error().key;

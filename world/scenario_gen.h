@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "world/status.h"
+#include "world/world.h"
 
 namespace vigil {
 
@@ -28,6 +29,12 @@ struct ScenarioGenOptions {
   // 0.05 m noise, 5 % misses, 0.05 false tracks per tick), "truth-clean" (no misses, no false
   // tracks) or "sgbm" (the rendered plan-view pipeline with SGBM disparity).
   std::string sensor;
+  // Dry run: each draw is also simulated (no cameras) and kept only if every person finishes
+  // their script (people walk the paths planned on the map and do not step around each other or
+  // a stopped robot, so two walking head-on in one lane would wait for ever). `world` gives the
+  // controllers (plugins/builtin.h); without a registry the robots stand still in the dry run.
+  bool dry_run = true;
+  WorldOptions world;
 };
 
 struct GeneratedScenario {

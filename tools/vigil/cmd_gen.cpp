@@ -72,11 +72,12 @@ void add_gen_command(CLI::App& app) {
     fs::create_directories(g.out_dir, ec);
     if (ec) throw Exit{report(bad_input(g.out_dir.string(), 0, "--out", "cannot create the folder: " + ec.message()))};
     // The written files are checked again as `vigil validate` checks them (plugins included).
-    PluginRegistry registry;
-    register_builtin_plugins(registry);
-    for (const auto& dir : plugin_search_path()) registry.add_search_dir(dir);
+    auto registry = std::make_shared<PluginRegistry>();
+    register_builtin_plugins(*registry);
+    for (const auto& dir : plugin_search_path()) registry->add_search_dir(dir);
     ScenarioContext ctx;
-    ctx.plugin_exists = [&registry](const std::string& name) { return registry.exists(name) || sensors::vision_sensor_exists(name); };
+    ctx.plugin_exists = [registry](const std::string& name) { return registry->exists(name) || sensors::vision_sensor_exists(name); };
+    g.world.plugins = registry;  // the dry run drives the robots with their controllers
     for (const auto& fam : fams) {
       g.family = fam;
       for (int i = o->first; i < o->first + o->count; ++i) {
