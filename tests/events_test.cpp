@@ -273,10 +273,10 @@ TEST(RenderedEvents, MserTracksAreTheSameBytesTwice) {
   fs::remove_all(b);
 }
 
-// The operator's marking: dis_lab_unauthorised marks the lab table as a handling zone, so the
-// rules take the zone from the floor plan and read no object from the scenario; without zones,
-// the scenario's unauthorised objects are the marked ones, where they lie at the start.
-TEST(RunEvents, HandlingZonesComeFromTheFloorPlanAndReplaceMarkedObjects) {
+// The operator's marking: dis_lab_unauthorised marks the lab table as a handling zone and the
+// laptop as a restricted object where it lies; the rules take the zone from the floor plan and the
+// marks from the scenario's `rules`, and read nothing from the scenario's objects (the ground truth).
+TEST(RunEvents, HandlingZonesAndRestrictedObjectsComeFromTheOperatorsMarksOnly) {
   auto sc = load_scenario(test::source_dir() / "scenarios" / "dis_lab_unauthorised.yaml");
   ASSERT_TRUE(sc.ok()) << sc.error().str();
   ASSERT_EQ(sc->rules.handling_zones, std::vector<std::string>{"lab_table"});
@@ -286,7 +286,6 @@ TEST(RunEvents, HandlingZonesComeFromTheFloorPlanAndReplaceMarkedObjects) {
     auto world = World::create(*sc, wo);
     ASSERT_TRUE(world.ok()) << world.error().str();
     const vision::ActivityRuleParams p = activity_rule_params(**world);
-    EXPECT_TRUE(p.watched.empty());
     ASSERT_EQ(p.handling_zones.size(), 1u);
     EXPECT_EQ(p.handling_zones[0].name, "lab_table");
     EXPECT_NEAR(p.handling_zones[0].x, 12.0, 1e-9);
@@ -294,15 +293,41 @@ TEST(RunEvents, HandlingZonesComeFromTheFloorPlanAndReplaceMarkedObjects) {
     EXPECT_TRUE(p.handling_zones[0].contains(12.6, 8.55, 0.0)) << "the laptop lies on it";
     EXPECT_FALSE(p.handling_zones[0].contains(12.0, 6.3, 0.3)) << "the lab's centre is not on the table";
     EXPECT_DOUBLE_EQ(p.left_bag_time, sc->rules.left_bag_time);
+    ASSERT_EQ(p.watched.size(), 1u);
+    EXPECT_EQ(p.watched[0].name, "laptop");
+    EXPECT_NEAR(p.watched[0].position.x, 12.6, 1e-9);
+    EXPECT_NEAR(p.watched[0].position.z, 0.75, 1e-9) << "on the table: its top";
   }
+  // Without the operator's marks nothing is watched, though the scenario's laptop is still
+  // `authorised: false` (what the ground truth judges by).
+  sc->rules.restricted_objects.clear();
   sc->rules.handling_zones.clear();
   auto world = World::create(*sc, wo);
   ASSERT_TRUE(world.ok()) << world.error().str();
   const vision::ActivityRuleParams p = activity_rule_params(**world);
-  ASSERT_EQ(p.watched.size(), 1u);
-  EXPECT_EQ(p.watched[0].name, "laptop");
-  EXPECT_NEAR(p.watched[0].position.x, 12.6, 1e-9);
-  EXPECT_GT(p.watched[0].position.z, 0.75);  // on the table
+  EXPECT_TRUE(p.watched.empty());
+  EXPECT_TRUE(p.handling_zones.empty());
+}
+
+TEST(RunEvents, RestrictedObjectMarksAreCheckedNamingTheKey) {
+  const std::string head = "name: t\nmap: " + (test::source_dir() / "maps" / "dis_labs.floorplan.yaml").string() +
+                           "\nduration: 5\nrules:\n  restricted_objects:\n";
+  const fs::path file = test::source_dir() / "scenarios" / "inline.yaml";
+  auto ok = parse_scenario(head + "    - {name: laptop, at: [12.6, 8.55]}\n    - {name: door, at: lab_door, z: 1.0}\n", file);
+  ASSERT_TRUE(ok) << ok.error().str();
+  ASSERT_EQ(ok->rules.restricted_objects.size(), 2u);
+  EXPECT_NEAR(ok->rules.restricted_objects[1].at.point.x, 12.0, 1e-9);
+  EXPECT_DOUBLE_EQ(ok->rules.restricted_objects[1].z, 1.0);
+  auto unknown = parse_scenario(head + "    - {name: laptop, at: nowhere}\n", file);
+  ASSERT_FALSE(unknown);
+  EXPECT_NE(unknown.error().str().find("restricted_objects[0].at"), std::string::npos) << unknown.error().str();
+  EXPECT_EQ(unknown.error().line, 6);
+  auto twice = parse_scenario(head + "    - {name: laptop, at: [12.6, 8.55]}\n    - {name: laptop, at: [12.0, 8.5]}\n", file);
+  ASSERT_FALSE(twice);
+  EXPECT_NE(twice.error().message.find("twice"), std::string::npos) << twice.error().str();
+  auto bad_key = parse_scenario(head + "    - {name: laptop, where: [12.6, 8.55]}\n", file);
+  ASSERT_FALSE(bad_key);
+  EXPECT_NE(bad_key.error().str().find("where"), std::string::npos) << bad_key.error().str();
 }
 
 }  // namespace

@@ -1,5 +1,3 @@
-#include <cstdio>
-#include <cstdlib>
 #include "vision/activity_rules.h"
 
 #include <algorithm>
@@ -335,7 +333,6 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
         o.owner_candidate_distance = -1;
       }
       if (now - o.first_seen >= ns(p_.object_confirm_time) && o.sightings >= 2) {
-        if (getenv("VIGIL_RULES_DEBUG")) fprintf(stderr, "%.2f confirm model %llu at %.2f %.2f owner %d\n", now/1e9, (unsigned long long)o.key, o.x, o.y, o.owner_candidate);
         o.confirmed = true;
         o.at_start = o.first_seen - first_stamp_ <= ns(p_.start_time);
         o.owner = o.at_start ? -1 : o.owner_candidate;
@@ -421,7 +418,6 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
       continue;
     }
     const Person* t = person(o.taker, now);
-    if (getenv("VIGIL_RULES_DEBUG")) fprintf(stderr, "%.2f model %llu taker %d owner %d ncand %zu carried %d\n", now/1e9, (unsigned long long)o.key, o.taker, o.owner, o.candidates.size(), carried_by);
     if (o.taker == o.owner) {
       if (o.left_event) {  // the owner came back for it: withdraw the report
         Event e = make_event(EventKind::kLeftBag, now, {o.x, o.y, o.z}, o.confidence);
@@ -481,8 +477,17 @@ void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
       const double d = dist(p.x, p.y, p_.watched[i].position.x, p_.watched[i].position.y);
       if (d < nd) nd = d, nearest = i;
     }
+    // An object the camera sees lying nearer to them than the marked one (away from the marked
+    // place) is what they handle: the zone rule judges it.
+    bool nearer_model = false;
+    for (const ObjectModel& o : objects_) {
+      if (!o.confirmed || now - o.last_seen > ns(p_.object_gone_time)) continue;
+      const double d = dist(p.x, p.y, o.x, o.y);
+      const WatchedObject& w = p_.watched[nearest];
+      nearer_model = nearer_model || (d < nd && dist(o.x, o.y, w.position.x, w.position.y) > p_.object_match_distance);
+    }
     const auto key = std::make_pair(id, nearest);
-    if (nd > p_.touch_distance) {
+    if (nd > p_.touch_distance || nearer_model) {
       // A visit ends when the person steps back well clear (hysteresis against jitter).
       for (auto it = visits_.begin(); it != visits_.end();) {
         const auto& w = p_.watched[it->first.second];

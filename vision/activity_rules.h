@@ -11,19 +11,23 @@
 // that bag and for the nearest person"; the bag appears with its track, so the person nearest to
 // the track in its first owner_window seconds counts, as do those near the model while it forms);
 // a model first seen within start_time of the first tick,
-// or with nobody near, has no owner ("present at the beginning of the sequence").
+// or with nobody near, has no owner ("present at the beginning of the sequence"). A bag whose
+// track was seen carried in belongs to its carrier. Only person tracks that have lasted
+// person_confirm_time count as owners, takers or occluders.
 //
 // Rules.
 //  - left bag: the owner's track is farther than left_bag_distance (or gone) for left_bag_time.
 //    If the owner then takes the bag back, a cancellation (same id, cancelled = true) follows.
 //  - bag taken / exchange: the bag goes (its place is in view, not hidden behind a person, and
-//    has no bag for object_gone_time), the nearest person within pickup_distance when it was
-//    last measured (Track::measured; a tracker's coasting prediction of a bag whose blob has gone
-//    says nothing about who stood by it) is the taker, and the taker then moves away (take_distance from the place and
-//    half that from where they stood): the owner taking it back is no event; anybody
-//    else raises "exchange" when the owner was within exchange_distance of them when the bag
-//    went, else "bag taken" (also for bags present at the start or left by another).
-//  - unauthorised object: a person stays within touch_distance of a marked object (WatchedObject;
+//    has no bag for object_gone_time; or its bag is seen carried off) and someone who stood within
+//    pickup_distance of it in its last measured second (Track::measured; a tracker's coasting
+//    prediction of a bag whose blob has gone says nothing about who stood by it) moves off with
+//    it: the one a moving bag track goes with (carry_distance, same velocity, three ticks), else
+//    the first of them to move away (take_distance from the place and half that from where they
+//    stood) or out of view. The owner taking it back is no event; anybody else raises "exchange"
+//    when the owner was within exchange_distance of them when the bag went, else "bag taken"
+//    (also for bags present at the start or left by another).
+//  - unauthorised object: a person stands (slower than touch_still_speed) within touch_distance of a marked object (WatchedObject;
 //    the operator marks what may not be handled, as the laptop of the chapter's lab) for
 //    touch_time, and that object is the nearest marked one to them. Once per visit.
 //    In a handling zone (HandlingZone: the operator marks a table, not the objects), the objects

@@ -99,8 +99,8 @@ class ScenarioReader {
         v->fail("must not exceed physics_rate_hz (" + fmt(sc_.physics_rate_hz) + ")");
       }
     }
-    if (auto v = top.get("rules")) read_rules(*v);
     if (auto v = top.get("places")) read_places(*v);
+    if (auto v = top.get("rules")) read_rules(*v);
     if (auto v = top.get("cameras")) {
       for (const Value& item : v->items()) sc_.cameras.push_back(read_camera(item));
     }
@@ -160,9 +160,31 @@ class ScenarioReader {
     if (grid_.width() <= 0 || grid_.height() <= 0) v.fail("map '" + path.string() + "' has no cells");
   }
 
-  // rules: {left_bag_distance, left_bag_time, exchange_distance, handling_zones: [furniture, ...]}
+  // rules: {left_bag_distance, left_bag_time, exchange_distance, handling_zones: [furniture, ...],
+  //         restricted_objects: [{name, at, z}, ...]}
   void read_rules(const Value& v) {
-    const Mapping m = v.mapping({"left_bag_distance", "left_bag_time", "exchange_distance", "handling_zones"});
+    const Mapping m = v.mapping({"left_bag_distance", "left_bag_time", "exchange_distance", "handling_zones",
+                                 "restricted_objects"});
+    if (auto x = m.get("restricted_objects")) {
+      if (!x->is_sequence()) x->fail("expected a list of {name: NAME, at: PLACE or [x, y], z: M}");
+      for (const Value& item : x->items()) {
+        const Mapping r = item.mapping({"name", "at", "z"});
+        RestrictedObjectSpec o;
+        o.name = r.require("name").identifier();
+        for (const auto& other : sc_.rules.restricted_objects)
+          if (other.name == o.name) r.require("name").fail("restricted object '" + o.name + "' is marked twice");
+        o.at = place_ref(r.require("at"));
+        // On a piece of furniture: its top, unless given.
+        for (const auto& f : furniture_) {
+          const double c = std::cos(f.pose.yaw), s = std::sin(f.pose.yaw);
+          const double dx = o.at.point.x - f.pose.x, dy = o.at.point.y - f.pose.y;
+          if (std::abs(c * dx + s * dy) <= f.size_x / 2 && std::abs(-s * dx + c * dy) <= f.size_y / 2) o.z = f.height;
+        }
+        if (auto z = r.get("z")) o.z = z->non_negative(100);
+        o.line = item.line();
+        sc_.rules.restricted_objects.push_back(o);
+      }
+    }
     if (auto x = m.get("left_bag_distance")) sc_.rules.left_bag_distance = x->positive(1e4);
     if (auto x = m.get("left_bag_time")) sc_.rules.left_bag_time = x->non_negative(1e7);
     if (auto x = m.get("exchange_distance")) sc_.rules.exchange_distance = x->positive(1e4);

@@ -110,6 +110,15 @@ struct ObjectSpec {
   int line = 0;
 };
 
+// An object the operator marks as not to be handled, where it lies (the cameras' rules watch the
+// place; nothing here is read from the scenario's objects).
+struct RestrictedObjectSpec {
+  std::string name;
+  PlaceRef at;
+  double z = 0;  // m: the object's height above the floor (default: the top of the furniture it is on)
+  int line = 0;
+};
+
 // Thresholds of the ground-truth event rules.
 struct EventRuleSpec {
   double left_bag_distance = 3.0;  // m the owner must be from the bag...
@@ -118,6 +127,9 @@ struct EventRuleSpec {
   // The operator's marking for the cameras' rules (not read by the ground truth): furniture whose
   // objects may be handled only by whoever put them there (chapter 10.6.1, scenario 2).
   std::vector<std::string> handling_zones;
+  // The operator's marking of single objects (for camera systems that cannot see them, such as a
+  // plan-view tracker and a laptop on a table).
+  std::vector<RestrictedObjectSpec> restricted_objects;
 };
 
 // A scripted fault (issue 11): from `at` seconds a robot stops (its controller no longer runs,

@@ -405,7 +405,9 @@ class Draw {
       << (o_.seed * 1000 + static_cast<uint64_t>(o_.index) + 1) << "\nphysics_rate_hz: 100\nrecord_rate_hz: 10\n";
     s << "rules:\n  left_bag_distance: " << kLeftBagDistance << "\n  left_bag_time: " << kLeftBagTime
       << "\n  exchange_distance: 1.5\n";
-    if (handling_zone_) s << "  handling_zones: [lab_table]\n";
+    if (handling_zone_)
+      s << "  handling_zones: [lab_table]\n  restricted_objects:\n    - {name: laptop, at: [" << fmt(kLaptopX) << ", "
+        << fmt(kLaptopY) << "]}\n";
     s << "\ncameras:\n";
     for (const ViewCamera& c : cameras_) {
       s << c.yaml();
@@ -941,8 +943,7 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     Draw d(Rng::stream(o.seed, o.family + "/" + std::to_string(o.index) + "/" + std::to_string(attempt)), o);
     d.reserve();
-    if (!fam->draw(d)) { if (getenv("GEN_DEBUG")) fprintf(stderr, "draw failed\n"); continue; }
-    if (!d.paths_clear()) { if (getenv("GEN_DEBUG")) fprintf(stderr, "paths\n"); continue; }
+    if (!fam->draw(d) || !d.paths_clear()) continue;
     g.text = d.yaml(g.name, o.family);
     g.summary = d.summary();
     auto parsed = parse_scenario(g.text, o.out_dir / (g.name + ".yaml"));

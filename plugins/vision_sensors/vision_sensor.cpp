@@ -150,14 +150,10 @@ vision::ActivityRuleParams activity_rule_params(const World& world) {
   for (const std::string& name : sc.rules.handling_zones)
     for (const auto& f : world.furniture())
       if (f.name == name) p.handling_zones.push_back({f.name, f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y});
-  // With handling zones marked, the rules judge the objects the cameras see there; otherwise
-  // the operator's marking of single objects (the scenario's authorised: false ones, where they
-  // are at the start) stands in, for camera systems that cannot see objects on a table.
-  for (const auto& o : world.objects()) {
-    if (!p.handling_zones.empty()) break;
-    if (o.spec.authorised || o.carrier >= 0 || !o.present) continue;
-    p.watched.push_back({o.spec.id, {o.pose.x, o.pose.y, o.z + o.spec.size_z / 2}, false});
-  }
+  // The operator's marking of single objects, where they lie (for camera systems that cannot see
+  // them on a table); handling zones judge the objects the cameras do see there. Nothing is read
+  // from the scenario's objects (which are the ground truth).
+  for (const auto& r : sc.rules.restricted_objects) p.watched.push_back({r.name, {r.at.point.x, r.at.point.y, r.z}, false});
   return p;
 }
 
