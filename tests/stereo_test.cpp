@@ -552,3 +552,25 @@ TEST_F(StereoTest, XmlCalibrationRoundTrip) {
 
 }  // namespace
 }  // namespace vigil::vision
+
+namespace vigil::vision {
+namespace {
+
+// One parser of COLSxROWS for `vigil calibrate stereo --board` and `vigil render --chessboard`.
+TEST(StereoCalibration, BoardSizeParsesColsByRowsAndNamesTheKeyOnBadInput) {
+  auto a = parse_board_size("9x6", "--board");
+  ASSERT_TRUE(a) << a.error().str();
+  EXPECT_EQ(*a, cv::Size(9, 6));
+  auto b = parse_board_size("12X8", "--chessboard");
+  ASSERT_TRUE(b);
+  EXPECT_EQ(*b, cv::Size(12, 8));
+  for (const char* bad : {"", "9", "9x", "x6", "9x6x2", "9*6", "1x6", "9x101", "9x6 extra"}) {
+    auto r = parse_board_size(bad, "--board");
+    ASSERT_FALSE(r) << "'" << bad << "' parsed";
+    EXPECT_EQ(r.error().key, "--board");
+    EXPECT_EQ(r.error().kind, ErrorKind::kBadInput);
+  }
+}
+
+}  // namespace
+}  // namespace vigil::vision

@@ -458,4 +458,14 @@ Result<StereoCameraModel> rectified_camera_model(const StereoCalibration& c, con
   return StereoCameraModel(k, baseline, pose);
 }
 
+Result<cv::Size> parse_board_size(const std::string& text, const std::string& key) {
+  int cols = 0, rows = 0;
+  char x = 0, extra = 0;
+  std::istringstream in(text);
+  if (!(in >> cols >> x >> rows) || (x != 'x' && x != 'X') || (in >> extra) || cols < 2 || rows < 2 || cols > 100 ||
+      rows > 100)
+    return bad_input("", 0, key, "expected inner corners as COLSxROWS (e.g. 9x6), got '" + text + "'");
+  return cv::Size(cols, rows);
+}
+
 }  // namespace vigil::vision

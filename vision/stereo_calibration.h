@@ -39,6 +39,9 @@ struct StereoCalibration {
   bool is_rectified_rig(double tolerance = 1e-6) const;
 };
 
+// A board's inner corners written COLSxROWS ("9x6", 2 to 100 each); the error names `key`.
+Result<cv::Size> parse_board_size(const std::string& text, const std::string& key);
+
 // The chessboard seen in the calibration images.
 struct ChessboardParams {
   cv::Size inner_corners{9, 6};  // inner corners per row and per column

@@ -35,15 +35,6 @@ namespace fs = std::filesystem;
 constexpr double kDeg = 180.0 / M_PI;
 
 // "9x6" to a size; an error naming --board otherwise.
-cv::Size parse_board(const std::string& s) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  std::istringstream in(s);
-  if (!(in >> w >> x >> h) || (x != 'x' && x != 'X') || (in >> extra) || w < 2 || h < 2 || w > 100 || h > 100)
-    throw Exit{report(bad_input("", 0, "--board", "expected inner corners as COLSxROWS (e.g. 9x6), got '" + s + "'"))};
-  return {w, h};
-}
-
 // Numbers separated by commas, exactly `n` of them.
 std::vector<double> parse_numbers(const std::string& s, size_t n, const std::string& key, const std::string& what) {
   std::vector<double> out;
@@ -167,7 +158,9 @@ void add_stereo(CLI::App* calibrate) {
       ->check(CLI::Range(1, 1000));
   cmd->callback([o] {
     vision::ChessboardParams board;
-    board.inner_corners = parse_board(o->board);
+    auto inner = vision::parse_board_size(o->board, "--board");
+    if (!inner) throw Exit{report(inner.error())};
+    board.inner_corners = *inner;
     board.square_size = o->square;
     board.min_pairs = o->min_pairs;
     board.subpixel_window = o->window;

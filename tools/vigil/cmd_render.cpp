@@ -226,13 +226,9 @@ void add_render_command(CLI::App& app) {
     if (Status s = write_rig(opts->out, model); !s) throw Exit{report(s.error())};
 
     if (!opts->chessboard.empty()) {
-      int cols = 0, rows = 0;
-      char x = 0, extra = 0;
-      if (std::sscanf(opts->chessboard.c_str(), "%d%c%d%c", &cols, &x, &rows, &extra) != 3 || (x != 'x' && x != 'X') ||
-          cols < 2 || rows < 2 || cols > 100 || rows > 100)
-        throw Exit{report(bad_input("", 0, "--chessboard", "expected inner corners as COLSxROWS (e.g. 9x6), got '" +
-                                                              opts->chessboard + "'"))};
-      const cv::Size inner(cols, rows);
+      auto board = vision::parse_board_size(opts->chessboard, "--chessboard");
+      if (!board) throw Exit{report(board.error())};
+      const cv::Size inner = *board;
       // Each view is rendered at 3x the resolution and area-averaged down, as a real sensor
       // integrates light over each pixel: the board's edges are not aliased, so the corners are
       // found to a fraction of a pixel as on a real camera's images.
@@ -274,7 +270,7 @@ void add_render_command(CLI::App& app) {
         }
       }
       std::printf("%d chessboard views (%dx%d inner corners, %g m squares) from %s written to %s with rig.yaml\n",
-                  written, cols, rows, opts->square, cam.id.c_str(), opts->out.c_str());
+                  written, inner.width, inner.height, opts->square, cam.id.c_str(), opts->out.c_str());
       return;
     }
 
