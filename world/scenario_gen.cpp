@@ -201,9 +201,10 @@ class Draw {
   int pick(int n) { return std::min(n - 1, static_cast<int>(rng_.uniform() * n)); }
 
   std::string colour(int lo = 20, int hi = 230) {
+    // One draw after another (the order of a call's arguments is unspecified).
+    const int r = static_cast<int>(u(lo, hi)), g = static_cast<int>(u(lo, hi)), bl = static_cast<int>(u(lo, hi));
     char b[16];
-    std::snprintf(b, sizeof b, "#%02x%02x%02x", static_cast<int>(u(lo, hi)), static_cast<int>(u(lo, hi)),
-                  static_cast<int>(u(lo, hi)));
+    std::snprintf(b, sizeof b, "#%02x%02x%02x", r, g, bl);
     return b;
   }
 
@@ -495,16 +496,50 @@ void walk_off(Draw& d, Actor& a, bool west, std::optional<double> at = std::null
   a.leave(out);
 }
 
+// Someone who walks in from out of view on a random side (appearing at `appear` when given).
+Actor& walker(Draw& d, std::optional<double> appear = std::nullopt) {
+  const Vec start = d.off_view(d.chance(0.5));
+  return d.person(start, appear);
+}
+
+// The corridor families' opening: the camera, and a person who carries a bag into view and puts
+// it down. Nothing when the draw leaves no room for it.
+struct Carrier {
+  Actor* person;
+  Object* bag;
+  Drop drop;
+};
+std::optional<Carrier> bag_carried_in(Draw& d, std::optional<double> appear = std::nullopt) {
+  d.corridor_camera();
+  if (!d.have_view()) return std::nullopt;
+  Actor& a = walker(d, appear);
+  Object& bag = d.bag(a.id);
+  auto drop = carry_in(d, a, bag);
+  if (!drop) return std::nullopt;
+  return Carrier{&a, &bag, *drop};
+}
+
+// Walks to `to` so as to be there at about `t` (held back with `at` when early).
+void arrive_at(Actor& a, Vec to, double t) {
+  const double lead = dist(a.pos, to) / a.speed * 1.15;
+  a.walk(to, std::max(0.0, t - lead));
+}
+
+// Picks a bag up from the floor: it is no longer in anyone's way.
+void pick_up_bag(Draw& d, Actor& a, const Object& bag, Vec where) {
+  a.hand("pick_up", bag.id, where);
+  d.off_floor(where, a.t);
+}
+
 using Family = std::function<bool(Draw&)>;
 
 bool fam_left_bag(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  const bool from_west = d.chance(0.5);
-  Actor& a = d.person(d.off_view(from_west), d.chance(0.5) ? std::optional<double>(d.u(0, 4)) : std::nullopt);
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  const std::optional<double> appear = d.chance(0.5) ? std::optional<double>(d.u(0, 4)) : std::nullopt;
+  auto c = bag_carried_in(d, appear);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   if (d.chance(0.4)) a.wait(d.u(0.5, 4.0));
   const bool west = d.side_west(drop->sides);
   walk_off(d, a, west);
@@ -513,12 +548,11 @@ bool fam_left_bag(Draw& d) {
 }
 
 bool fam_bag_taken(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)));
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  auto c = bag_carried_in(d);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   const double t_down = a.t;
   walk_off(d, a, d.side_west(drop->sides));
   // The taker arrives once the owner is well away: sometimes before the bag counts as left.
@@ -527,10 +561,8 @@ bool fam_bag_taken(Draw& d) {
   const bool b_west = d.chance(0.5);
   Actor& b = d.person(d.off_view(b_west));
   const Vec by = d.near(drop->bag, 0.8, 1.1).value_or(Vec{drop->bag.x + (b_west ? -1.0 : 1.0), 3.1});
-  const double lead = dist(b.pos, by) / b.speed * 1.15;
-  b.walk(by, std::max(0.0, t_b - lead));
-  b.hand("pick_up", bag.id, drop->bag);
-  d.off_floor(drop->bag, b.t);
+  arrive_at(b, by, t_b);
+  pick_up_bag(d, b, bag, drop->bag);
   const bool b_exit_west = d.side_west(d.exit_sides(drop->bag) ? d.exit_sides(drop->bag) : 3);
   walk_off(d, b, b_exit_west);
   d.note(a.id + " leaves " + bag.id + " at " + pt(drop->bag) + "; " + b.id + " takes it " +
@@ -539,24 +571,21 @@ bool fam_bag_taken(Draw& d) {
 }
 
 bool fam_exchange(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)));
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  auto c = bag_carried_in(d);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   // The owner stays right by the bag; the taker comes up beside both.
   const auto w = d.near(drop->bag, 0.8, 0.95);
   if (!w) return false;
   a.walk(*w);
   const double t_b = a.t + d.u(1.0, 6.0);
-  Actor& b = d.person(d.off_view(d.chance(0.5)));
+  Actor& b = walker(d);
   const auto by = d.near(drop->bag, 0.8, 0.9, [&](Vec p) { return dist(p, *w) >= 0.7 && dist(p, *w) <= 1.25; });
   if (!by) return false;
-  const double lead = dist(b.pos, *by) / b.speed * 1.15;
-  b.walk(*by, std::max(0.0, t_b - lead));
-  b.hand("pick_up", bag.id, drop->bag);
-  d.off_floor(drop->bag, b.t);
+  arrive_at(b, *by, t_b);
+  pick_up_bag(d, b, bag, drop->bag);
   const double t_pick = b.t;
   const bool b_west = d.chance(0.5);
   walk_off(d, b, b_west);
@@ -569,12 +598,11 @@ bool fam_exchange(Draw& d) {
 }
 
 bool fam_owner_returns(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)));
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  auto c = bag_carried_in(d);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   const bool west = d.side_west(drop->sides);
   const bool long_away = d.chance(0.7);
   // Away to a point in view beyond the rules' distance, or out of view.
@@ -591,8 +619,7 @@ bool fam_owner_returns(Draw& d) {
   }
   a.walk(away);
   a.wait(long_away ? d.u(kLeftBagTime + 1.5, kLeftBagTime + 10) : d.u(0.0, 0.8));
-  a.hand("pick_up", bag.id, drop->bag);
-  d.off_floor(drop->bag, a.t);
+  pick_up_bag(d, a, bag, drop->bag);
   walk_off(d, a, d.chance(0.5));
   d.note(a.id + " leaves " + bag.id + " at " + pt(drop->bag) + ", walks to " + pt(away) + (in_view ? " (in view)" : " (out of view)") +
          (long_away ? ", stays away" : ", turns back at once") + " and takes it back");
@@ -600,19 +627,17 @@ bool fam_owner_returns(Draw& d) {
 }
 
 bool fam_owner_stays(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)));
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  auto c = bag_carried_in(d);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   const int moves = 1 + d.pick(3);
   for (int i = 0; i < moves; ++i) {
     if (auto p = d.near(drop->bag, 0.8, kLeftBagDistance - 0.7)) a.walk(*p);
     a.wait(d.u(2.0, 7.0));
   }
-  a.hand("pick_up", bag.id, drop->bag);
-  d.off_floor(drop->bag, a.t);
+  pick_up_bag(d, a, bag, drop->bag);
   walk_off(d, a, d.chance(0.5));
   d.note(a.id + " puts " + bag.id + " down at " + pt(drop->bag) + ", stays within " + fmt(kLeftBagDistance - 0.7) +
          " m for " + std::to_string(moves) + " moves and takes it");
@@ -658,13 +683,13 @@ bool fam_walk_past(Draw& d) {
 }
 
 bool fam_two_carriers(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)));
-  Object& bag_a = d.bag(a.id);
-  auto da = carry_in(d, a, bag_a);
-  if (!da) return false;
-  Actor& b = d.person(d.off_view(d.chance(0.5)), d.u(0.0, 4.0));
+  auto c = bag_carried_in(d);
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag_a = *c->bag;
+  const Drop* da = &c->drop;
+  const double b_appears = d.u(0.0, 4.0);
+  Actor& b = walker(d, b_appears);
   Object& bag_b = d.bag(b.id);
   const std::optional<Drop> db = carry_in(d, b, bag_b);
   if (!db || dist(db->bag, da->bag) < 1.5) return false;
@@ -675,8 +700,7 @@ bool fam_two_carriers(Draw& d) {
   } else {
     if (auto p = d.near(db->bag, 0.8, 1.4)) b.walk(*p);
     b.wait(d.u(kLeftBagTime + 1, kLeftBagTime + 6));
-    b.hand("pick_up", bag_b.id, db->bag);
-    d.off_floor(db->bag, b.t);
+    pick_up_bag(d, b, bag_b, db->bag);
     walk_off(d, b, d.chance(0.5));
   }
   d.note(a.id + " leaves " + bag_a.id + " at " + pt(da->bag) + "; " + b.id + " puts " + bag_b.id + " at " + pt(db->bag) +
@@ -711,12 +735,11 @@ bool fam_crossing(Draw& d) {
 }
 
 bool fam_robot_near_bag(Draw& d) {
-  d.corridor_camera();
-  if (!d.have_view()) return false;
-  Actor& a = d.person(d.off_view(d.chance(0.5)), d.u(0.0, 12.0));
-  Object& bag = d.bag(a.id);
-  auto drop = carry_in(d, a, bag);
-  if (!drop) return false;
+  auto c = bag_carried_in(d, d.u(0.0, 12.0));
+  if (!c) return false;
+  Actor& a = *c->person;
+  const Object& bag = *c->bag;
+  const Drop* drop = &c->drop;
   walk_off(d, a, d.side_west(drop->sides));
   // A robot drives in from a side and either stops by the bag or passes it and goes on.
   const bool from_west = d.chance(0.5);
@@ -801,7 +824,8 @@ bool fam_lab_own(Draw& d) {
   d.lab_camera();
   d.handling_zone();
   laptop(d);
-  Actor& b = d.person(lab_entry_from(d), d.u(0.0, 3.0));
+  const Vec b_from = lab_entry_from(d);
+  Actor& b = d.person(b_from, d.u(0.0, 3.0));
   into_lab(b);
   std::vector<Vec> where;
   const auto ids = bring_objects(d, b, 1 + d.pick(2), &where);
@@ -830,7 +854,8 @@ bool fam_lab_other(Draw& d) {
   d.lab_camera();
   d.handling_zone();
   laptop(d);
-  Actor& b = d.person(lab_entry_from(d), d.u(0.0, 3.0));
+  const Vec b_from = lab_entry_from(d);
+  Actor& b = d.person(b_from, d.u(0.0, 3.0));
   into_lab(b);
   std::vector<Vec> where;
   const auto ids = bring_objects(d, b, 1 + d.pick(2), &where);
