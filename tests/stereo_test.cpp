@@ -63,6 +63,75 @@ void shifted_pair(cv::Size size, int d, int channels, cv::Mat* left, cv::Mat* ri
   *right = texture(cv::Rect(d, 0, size.width, size.height)).clone();
 }
 
+// Matching only where it is wanted gives the whole image's disparities there (the crops reach
+// the search range to the left and a margin round), nothing elsewhere, and says where it matched;
+// an empty mask or one covering most of the image matches everything.
+TEST_F(StereoTest, MatchingInBoxesGivesTheWholeImagesDisparityThere) {
+  cv::Mat l, r;
+  shifted_pair({320, 240}, 12, 3, &l, &r);
+  StereoMatcherParams p;
+  p.num_disparities = 32;
+  p.half_pixel_pass = true;
+  auto m = StereoMatcher::create(p);
+  ASSERT_TRUE(m.ok());
+  auto full = m->compute(l, r);
+  ASSERT_TRUE(full.ok());
+  cv::Mat wanted = cv::Mat::zeros(l.size(), CV_8UC1);
+  wanted(cv::Rect(150, 60, 30, 50)).setTo(255);   // one part...
+  wanted(cv::Rect(10, 150, 20, 20)).setTo(255);   // ...one against the left edge...
+  wanted(cv::Rect(186, 70, 10, 10)).setTo(255);   // ...and one that merges with the first
+  cv::Mat measured;
+  auto part = m->compute_in(l, r, wanted, &measured, 4);
+  ASSERT_TRUE(part.ok()) << part.error().str();
+  ASSERT_EQ(measured.size(), l.size());
+  ASSERT_EQ(measured.type(), CV_8UC1);
+  // Every wanted pixel measured; the measured area is the grown boxes, a small part of the image.
+  EXPECT_EQ(cv::countNonZero(wanted & ~measured), 0);
+  EXPECT_LT(cv::countNonZero(measured), l.total() / 8);
+  int agree = 0, total = 0, outside_valid = 0;
+  for (int y = 0; y < l.rows; ++y)
+    for (int x = 0; x < l.cols; ++x) {
+      const float d = part->at<float>(y, x);
+      if (!measured.at<uint8_t>(y, x)) {
+        outside_valid += d > 0;
+        continue;
+      }
+      if (!wanted.at<uint8_t>(y, x) || x < p.num_disparities) continue;  // the left edge has no match either way
+      ++total;
+      agree += std::abs(d - full->at<float>(y, x)) < 0.05f;
+    }
+  EXPECT_EQ(outside_valid, 0);
+  ASSERT_GT(total, 1000);
+  EXPECT_GT(static_cast<double>(agree) / total, 0.97) << agree << " of " << total;
+  // Same input, same bytes.
+  cv::Mat measured2;
+  auto again = m->compute_in(l, r, wanted, &measured2, 4);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(cv::norm(*again, *part, cv::NORM_INF), 0.0);
+  // An empty mask, or one wanting most of the image: the whole pair, measured everywhere.
+  auto all = m->compute_in(l, r, cv::Mat(), &measured);
+  ASSERT_TRUE(all.ok());
+  EXPECT_TRUE(measured.empty());
+  EXPECT_EQ(cv::norm(*all, *full, cv::NORM_INF), 0.0);
+  cv::Mat most = cv::Mat::zeros(l.size(), CV_8UC1);
+  most(cv::Rect(0, 0, 300, 200)).setTo(255);
+  auto big = m->compute_in(l, r, most, &measured);
+  ASSERT_TRUE(big.ok());
+  EXPECT_TRUE(measured.empty());
+  // Nothing wanted: nothing matched.
+  auto none = m->compute_in(l, r, cv::Mat::zeros(l.size(), CV_8UC1), &measured);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(cv::countNonZero(measured), 0);
+  EXPECT_EQ(cv::countNonZero(*none > 0), 0);
+  // A mask of another size or type is an error naming it.
+  auto bad = m->compute_in(l, r, cv::Mat::zeros(10, 10, CV_8UC1), &measured);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().key, "wanted");
+  bad = m->compute_in(l, r, cv::Mat::zeros(l.size(), CV_32F), &measured);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().key, "wanted");
+}
+
 TEST_F(StereoTest, BothAlgorithmsRecoverAKnownShift) {
   for (const StereoMatcherParams& params : {StereoMatcherParams{}, StereoMatcherParams::bm()}) {
     for (int channels : {1, 3}) {

@@ -238,3 +238,55 @@ TEST(VisionSensorHost, UnknownSensorsAndBadParametersNameTheCameraLine) {
 
 }  // namespace
 }  // namespace vigil::sensors
+
+namespace vigil::sensors {
+namespace {
+
+// Reports a bag track on each robot's wheel odometry (what the robot itself would report
+// without a localiser) and one 1 m to its side: a camera system that takes a robot for a bag.
+class BagsAtRobots : public VisionSensor {
+ public:
+  std::vector<ParamSpec> params() const override { return {}; }
+  Status configure(const ParamSet&, const SensorContext&) override { return Status::Ok(); }
+  bool wants_frames() const override { return false; }
+  Status tick(const vision::StereoFrame*, const World& world, std::vector<vision::Track>* out) override {
+    int id = 1;
+    for (const RobotEntity& r : world.robots()) {
+      for (double side : {0.0, 1.0}) {
+        vision::Track t;
+        t.stamp_ns = world.time();
+        t.camera = "cam_corridor";
+        t.id = id++;
+        t.cls = vision::TrackClass::kBag;
+        t.x = r.state.odometry.x;
+        t.y = r.state.odometry.y + side;
+        t.height = 0.4;
+        t.width = 0.4;
+        out->push_back(t);
+      }
+    }
+    return Status::Ok();
+  }
+};
+
+// A bag-sized track where a robot reports itself is reported as that robot (as the rules take
+// it); one a metre away stays a bag.
+TEST(VisionSensorHost, BagTracksWhereARobotReportsItselfAreThatRobot) {
+  register_vision_sensor("test_bags_at_robots", [] { return std::make_unique<BagsAtRobots>(); });
+  Scenario sc = load("dis_left_bag");
+  sc.duration = 2;
+  camera(sc, "cam_corridor").plugin = "test_bags_at_robots";
+  ASSERT_FALSE(sc.robots.empty());
+  const RunResult r = run_with(sc);
+  ASSERT_FALSE(r.tracks.empty());
+  int robots = 0, bags = 0;
+  for (const auto& t : r.tracks) {
+    const bool on_robot = t.id % 2 == 1;
+    EXPECT_EQ(t.cls, on_robot ? vision::TrackClass::kRobot : vision::TrackClass::kBag) << "track " << t.id;
+    (on_robot ? robots : bags)++;
+  }
+  EXPECT_EQ(robots, bags);
+}
+
+}  // namespace
+}  // namespace vigil::sensors

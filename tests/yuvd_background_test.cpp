@@ -341,6 +341,74 @@ TEST(YuvdBackground, InvalidDepthIsNoDepth) {
   EXPECT_GT(g->depth_valid_fraction, 0.99f);
 }
 
+// Depth measured only in part of the frame (stereo matched where the colour changed): outside
+// the measured mask depth is unknown, not invalid, so the background's depth statistics stay as
+// they were there, while an all-invalid depth wears the valid fraction down; a nearer object
+// inside the mask is still found by its depth.
+TEST(YuvdBackground, UnmeasuredDepthLeavesTheDepthStatisticsAlone) {
+  const cv::Mat bg = textured_background();
+  YuvdBackground model = make();
+  cv::Mat mask;
+  for (int t = 0; t < 40; ++t) ASSERT_TRUE(model.apply(noisy(bg, t), depth_plane(kBackDepth, t), mask).ok());
+  const cv::Rect left(0, 0, kW / 2, kH);
+  cv::Mat measured = cv::Mat::zeros(bg.size(), CV_8UC1);
+  measured(cv::Rect(kW / 2, 0, kW / 2, kH)).setTo(255);
+  const float before = model.gaussian(20, 50, 0)->depth_valid_fraction;
+  for (int t = 40; t < 140; ++t) {
+    cv::Mat depth = cv::Mat::zeros(bg.size(), CV_32F);  // no match anywhere
+    ASSERT_TRUE(model.apply(noisy(bg, t), depth, measured, mask).ok());
+  }
+  auto kept = model.gaussian(20, 50, 0);  // not measured
+  auto worn = model.gaussian(120, 50, 0);  // measured, no match
+  ASSERT_TRUE(kept.ok() && worn.ok());
+  EXPECT_EQ(kept->depth_valid_fraction, before);
+  EXPECT_NEAR(kept->mean_depth, kBackDepth, 0.02);
+  EXPECT_LT(worn->depth_valid_fraction, before * 0.7f);
+  // A grey object of the background's colour statistics but nearer: found where depth is
+  // measured, not where it is not (there only colour can tell, and it cannot).
+  YuvdBackground m2 = make();
+  for (int t = 0; t < 40; ++t) ASSERT_TRUE(m2.apply(noisy(bg, t), depth_plane(kBackDepth, t), mask).ok());
+  const cv::Rect near_l(20, 40, 30, 30), near_r(110, 40, 30, 30);
+  for (int t = 40; t < 45; ++t) {
+    cv::Mat depth = depth_plane(kBackDepth, t);
+    depth(near_l).setTo(1.5f);
+    depth(near_r).setTo(1.5f);
+    ASSERT_TRUE(m2.apply(noisy(bg, t), depth, measured, mask).ok());
+  }
+  EXPECT_GT(fraction(mask, near_r), 0.9);
+  EXPECT_LT(fraction(mask, near_l), 0.1);
+  // A mask of another size is an error naming it.
+  const Status bad = m2.apply(bg, depth_plane(kBackDepth, 0), cv::Mat::zeros(10, 10, CV_8UC1), mask);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().key, "depth_measured");
+}
+
+// Where the colour differs from the background, before the frame is learnt: nowhere on the
+// background itself, on an object of another colour, everywhere before the first frame; the
+// model is not changed by asking.
+TEST(YuvdBackground, ColourChangesFindWhereForegroundCanBe) {
+  const cv::Mat bg = textured_background();
+  YuvdBackground model = make();
+  cv::Mat changed, mask;
+  ASSERT_TRUE(model.colour_changes(bg, changed).ok());
+  EXPECT_EQ(cv::countNonZero(changed), static_cast<int>(bg.total()));
+  for (int t = 0; t < 40; ++t) ASSERT_TRUE(model.apply(noisy(bg, t), depth_plane(kBackDepth, t), mask).ok());
+  const int64_t frames = model.frames();
+  ASSERT_TRUE(model.colour_changes(noisy(bg, 99), changed).ok());
+  EXPECT_LT(cv::countNonZero(changed), static_cast<int>(bg.total() / 200));
+  cv::Mat frame = noisy(bg, 100);
+  const cv::Rect obj(60, 40, 30, 30);
+  frame(obj).setTo(cv::Scalar(30, 200, 90));
+  ASSERT_TRUE(model.colour_changes(frame, changed).ok());
+  EXPECT_GT(fraction(changed, obj), 0.97);
+  EXPECT_LT(fraction_outside(changed, obj), 0.005);
+  EXPECT_EQ(model.frames(), frames);
+  // And the foreground the model then finds lies inside it.
+  ASSERT_TRUE(model.apply(frame, depth_plane(kBackDepth, 100), mask).ok());
+  EXPECT_EQ(cv::countNonZero(mask & ~changed), 0);
+  EXPECT_FALSE(model.colour_changes(cv::Mat::zeros(kH, kW, CV_8UC1), changed).ok());
+}
+
 // Eq. 10.4: where the luminance keeps changing the learning rate is divided by 5, so an object
 // that flickers is absorbed into the background much later than a steady one.
 TEST(YuvdBackground, ActivityReducesLearningRate) {

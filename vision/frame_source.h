@@ -24,6 +24,11 @@ struct StereoFrame {
   cv::Mat depth;          // CV_32F metres along the optical axis of the left view; 0 = no depth
   cv::Mat disparity;      // CV_32F pixels (left view); 0 or negative = invalid
   cv::Mat labels;         // CV_32S entity label per left pixel (rendered frames; 0 = background)
+  // CV_8U, where depth and disparity were measured at all (nonzero) when stereo was matched only
+  // in parts of the image (StereoMatcher::compute_in); empty = measured everywhere. Outside it
+  // depth is unknown, which is not the same as "no match": a background model neither compares
+  // nor learns depth there.
+  cv::Mat depth_measured;
 };
 
 class FrameSource {

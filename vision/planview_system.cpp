@@ -16,13 +16,20 @@ Status DepthEdgeFilterParams::validate() const {
   return Status::Ok();
 }
 
+Status DepthRegionParams::validate() const {
+  if (full_every < 0) return bad_input("", 0, "full_every", "must be >= 0 frames");
+  if (full_first < 1) return bad_input("", 0, "full_first", "must be >= 1 frame (the background needs depth)");
+  return Status::Ok();
+}
+
 Result<PlanViewSystem> PlanViewSystem::create(const StereoCameraModel& camera, const PlanViewSystemParams& params) {
   if (Status s = params.depth_filter.validate(); !s) return s.error();
+  if (Status s = params.depth_region.validate(); !s) return s.error();
   auto bg = YuvdBackground::create(params.background);
   if (!bg) return bg.error();
   auto pipeline = PlanViewPipeline::create(camera, params.plan, params.tracking);
   if (!pipeline) return pipeline.error();
-  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter);
+  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter, params.depth_region);
 }
 
 Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
@@ -38,11 +45,22 @@ Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
     return bad_input("", 0, "frame",
                      "frame " + std::to_string(frame.index) +
                          " has no depth: the plan-view system needs a stereo source with disparity (disparity=sgbm)");
-  if (Status s = background_.apply(frame.left, frame.depth, foreground_); !s) return s.error();
+  if (!frame.depth_measured.empty() && frame.depth_measured.size() != frame.depth.size())
+    return bad_input("", 0, "frame", "frame " + std::to_string(frame.index) + ": depth_measured is not the depth's size");
+  if (Status s = background_.apply(frame.left, frame.depth, frame.depth_measured, foreground_); !s) return s.error();
   if (filter_.edge_radius <= 0 || frame.depth.type() != CV_32F || frame.depth.size() != foreground_.size())
     return pipeline_.process(foreground_, frame.depth, frame.stamp_ns);
   filter_depth_edges(frame.depth);
   return pipeline_.process(plan_mask_, frame.depth, frame.stamp_ns);
+}
+
+cv::Mat PlanViewSystem::depth_wanted(const StereoFrame& frame) {
+  if (!region_.foreground_only) return {};
+  const int64_t learnt = background_.frames();
+  if (learnt < region_.full_first) return {};
+  if (region_.full_every > 0 && (learnt - region_.full_first) % region_.full_every == region_.full_every - 1) return {};
+  if (!background_.colour_changes(frame.left, changed_)) return {};  // process() reports the bad frame
+  return changed_;
 }
 
 void PlanViewSystem::reset() {

@@ -33,8 +33,23 @@ struct DepthEdgeFilterParams {
   Status validate() const;
 };
 
+// Where the system asks for depth (Tracker::depth_wanted). Stereo matching is most of a frame's
+// cost, and the plan view only ever uses foreground pixels; a foreground pixel is one whose colour
+// or depth differs from the background, and (camouflage aside) colour alone finds where that can
+// be. So with foreground_only the system asks for depth where the frame's colour differs from
+// the background model (YuvdBackground::colour_changes; the matcher grows it by a few pixels,
+// StereoMatcher::compute_in), and everywhere on the first full_first frames (which give the
+// background its depth) and on one frame in full_every after them (which keep it learning).
+struct DepthRegionParams {
+  bool foreground_only = false;
+  int full_first = 10;  // frames
+  int full_every = 60;  // frames; 0 = never after the first
+  Status validate() const;
+};
+
 struct PlanViewSystemParams {
   YuvdBackgroundParams background;
+  DepthRegionParams depth_region;
   DepthEdgeFilterParams depth_filter;
   PlanViewParams plan;
   PlanViewTrackerParams tracking;  // tracking.camera names the tracks' camera
@@ -49,6 +64,7 @@ class PlanViewSystem : public Tracker {
   Result<std::vector<Track>> process(const StereoFrame& frame) override;
   std::string_view name() const override { return "planview"; }
   bool needs_depth() const override { return true; }
+  cv::Mat depth_wanted(const StereoFrame& frame) override;
   // Forgets the background model and every track (track ids keep counting up).
   void reset() override;
 
@@ -62,8 +78,10 @@ class PlanViewSystem : public Tracker {
   cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const override;
 
  private:
-  PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df)
-      : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)), filter_(df) {}
+  PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df,
+                 DepthRegionParams region)
+      : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)), filter_(df),
+        region_(region) {}
   // Drops the foreground pixels that are not on the near surface (see DepthEdgeFilterParams)
   // from plan_mask_.
   void filter_depth_edges(const cv::Mat& depth);
@@ -71,6 +89,8 @@ class PlanViewSystem : public Tracker {
   YuvdBackground background_;
   PlanViewPipeline pipeline_;
   DepthEdgeFilterParams filter_;
+  DepthRegionParams region_;
+  cv::Mat changed_;
   cv::Mat foreground_, plan_mask_, near_depth_;
 };
 

@@ -185,6 +185,78 @@ Result<cv::Mat> StereoMatcher::compute(const cv::Mat& left, const cv::Mat& right
   return disparity;
 }
 
+Result<cv::Mat> StereoMatcher::compute_in(const cv::Mat& left, const cv::Mat& right, const cv::Mat& wanted,
+                                          cv::Mat* measured, int grow, double full_fraction) const {
+  measured->release();
+  if (wanted.empty()) return compute(left, right);
+  if (wanted.type() != CV_8UC1 || wanted.size() != left.size())
+    return bad_input("", 0, "wanted", "expected a CV_8UC1 mask of the left image's size");
+  if (grow < 0) return bad_input("", 0, "grow", "must be >= 0");
+  // Boxes of the grown mask's parts, merged while any two come within `grow` of each other.
+  cv::Mat grown;
+  if (grow > 0)
+    cv::dilate(wanted, grown, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * grow + 1, 2 * grow + 1)));
+  else
+    grown = wanted;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(grown, labels, stats, centroids, 8, CV_32S);
+  std::vector<cv::Rect> boxes;
+  for (int i = 1; i < n; ++i)
+    boxes.emplace_back(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                       stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+  const cv::Rect image(0, 0, left.cols, left.rows);
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (size_t i = 0; i < boxes.size() && !merged; ++i) {
+      const cv::Rect near(boxes[i].x - grow, boxes[i].y - grow, boxes[i].width + 2 * grow, boxes[i].height + 2 * grow);
+      for (size_t j = i + 1; j < boxes.size(); ++j) {
+        if ((near & boxes[j]).area() == 0) continue;
+        boxes[i] |= boxes[j];
+        boxes.erase(boxes.begin() + static_cast<std::ptrdiff_t>(j));
+        merged = true;
+        break;
+      }
+    }
+  }
+  cv::Mat disparity(left.size(), CV_32F, cv::Scalar(kInvalidDisparity));
+  measured->create(left.size(), CV_8UC1);
+  measured->setTo(0);
+  if (boxes.empty()) return disparity;
+  const int reach = params_.min_disparity + params_.num_disparities;
+  const int margin = params_.block_size + 4;
+  std::vector<cv::Rect> crops;
+  double area = 0;
+  for (const cv::Rect& b : boxes) {
+    cv::Rect c(b.x - reach - margin, b.y - margin, b.width + reach + 2 * margin, b.height + 2 * margin);
+    c &= image;
+    // The matcher needs the crop wider than the search range and taller than a block.
+    if (c.width <= reach + 1) {
+      const int x1 = std::min(image.width, c.x + reach + 2);
+      c.x = std::max(0, x1 - (reach + 2));
+      c.width = x1 - c.x;
+    }
+    if (c.height < params_.block_size) {
+      c.y = std::max(0, std::min(c.y, image.height - params_.block_size));
+      c.height = std::min(image.height - c.y, params_.block_size);
+    }
+    crops.push_back(c);
+    area += c.area();
+  }
+  if (area > full_fraction * image.area()) {
+    measured->release();
+    return compute(left, right);
+  }
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    const cv::Rect& c = crops[i];
+    auto d = compute(left(c), right(c));
+    if (!d) return d.error();
+    const cv::Rect keep = boxes[i] & c;
+    (*d)(keep - c.tl()).copyTo(disparity(keep));
+    (*measured)(keep).setTo(255);
+  }
+  return disparity;
+}
+
 cv::Mat depth_from_disparity(const cv::Mat& disparity, const StereoCameraModel& camera) {
   const float fb = static_cast<float>(camera.intrinsics().fx * camera.baseline());
   cv::Mat depth = cv::Mat::zeros(disparity.size(), CV_32F);

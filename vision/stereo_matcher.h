@@ -75,6 +75,18 @@ class StereoMatcher {
   // size and type (8-bit, 1 or 3 channels; BM matches their grey levels).
   Result<cv::Mat> compute(const cv::Mat& left, const cv::Mat& right) const;
 
+  // Matching only where it is wanted: `wanted` (CV_8UC1 of the pair's size, nonzero = wanted) is
+  // grown by `grow` pixels and cut into boxes (the bounding boxes of its connected parts, merged
+  // where they come within `grow` of each other). Each box is matched as a pair of crops that
+  // reach num_disparities + block_size further left (the search range) and block_size beyond the
+  // other sides (the blocks and the smoothness paths), and its disparities are kept. Returns the
+  // disparity (kInvalidDisparity outside the boxes) and sets *measured (CV_8UC1, 255 inside the
+  // boxes). When the boxes would cover more than `full_fraction` of the image, or `wanted` is
+  // empty, the whole pair is matched and *measured is left empty (measured everywhere).
+  // The same pair and mask always give the same bytes.
+  Result<cv::Mat> compute_in(const cv::Mat& left, const cv::Mat& right, const cv::Mat& wanted, cv::Mat* measured,
+                             int grow = 8, double full_fraction = 0.6) const;
+
  private:
   explicit StereoMatcher(const StereoMatcherParams& params) : params_(params) {}
   StereoMatcherParams params_;

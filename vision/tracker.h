@@ -23,6 +23,10 @@ class Tracker {
   virtual std::string_view name() const = 0;
   // True when process() needs frame.depth (a stereo system); false when the left image is enough.
   virtual bool needs_depth() const = 0;
+  // Where this frame's depth is needed (CV_8UC1 of the frame's size, nonzero = needed), from its
+  // left image, before process() is given the same frame; empty = everywhere (the default). A
+  // stereo source may then match only there and say so in frame.depth_measured.
+  virtual cv::Mat depth_wanted(const StereoFrame&) { return {}; }
   // One frame, stamps increasing. Returns the tracks reported on this frame (map frame, the
   // tracker's camera id). Bad input (wrong size or type, a missing image) is an error naming
   // what is wrong; the tracker's state is unchanged by it.

@@ -91,6 +91,7 @@ struct RowArgs {
   float* act;
   const uint8_t *Y, *U, *V, *PY;  // this row of the frame's Y, U, V planes and the previous Y
   const float* D;                 // this row of the depth image (raw, may hold invalid values)
+  const uint8_t* M;               // this row of the measured mask (nonzero = depth measured), or null
   uint8_t* mask;
   int width;
 };
@@ -155,6 +156,7 @@ struct Kernel {
   struct Obs {
     vf Y, U, V, D;
     vi dval;       // valid depth
+    vi dmeas;      // depth measured (valid or not): its statistics may learn
     vi chroma;     // Y >= ymin
   };
 
@@ -253,7 +255,7 @@ struct Kernel {
       g.mD = sel(md, mD, g.mD);
       g.vD = sel(md, vD, g.vD);
       const vf valid = sel(o.dval, splat(1.0f), splat(0.0f));
-      g.fD = sel(m, g.fD + a * (valid - g.fD), g.fD);
+      g.fD = sel(m & o.dmeas, g.fD + a * (valid - g.fD), g.fD);
     }
   }
 
@@ -295,11 +297,12 @@ struct Kernel {
     const vi all_ones = splat_i(-1);
     // The last step may reach past the row: it reads from zero-padded copies (the padding lanes
     // are computed and discarded).
-    uint8_t tail_u8[4][N];
+    uint8_t tail_u8[5][N];
     float tail_d[N];
     for (int x = 0; x < r.width; x += N) {
       const uint8_t *py = r.Y + x, *pu = r.U + x, *pv = r.V + x, *ppy = r.PY + x;
       const float* pd = r.D + x;
+      const uint8_t* pm = r.M ? r.M + x : nullptr;
       const int n = std::min(N, r.width - x);
       if (n < N) {
         std::memset(tail_u8, 0, sizeof tail_u8);
@@ -315,6 +318,10 @@ struct Kernel {
           std::fill(tail_d, tail_d + N, 0.0f);
           std::memcpy(tail_d, pd, n * sizeof(float));
           pd = tail_d;
+          if (pm) {
+            std::memcpy(tail_u8[4], pm, n);
+            pm = tail_u8[4];
+          }
         }
       }
       Obs o;
@@ -326,10 +333,13 @@ struct Kernel {
         const vf d = ld(pd);
         // valid: positive and finite (NaN fails both comparisons); invalid depth becomes 0
         o.dval = (d > splat(0.0f)) & (d < splat(std::numeric_limits<float>::infinity()));
+        o.dmeas = pm ? (ld_u8(pm) > splat(0.0f)) : splat_i(-1);
+        o.dval &= o.dmeas;
         o.D = sel(o.dval, d, splat(0.0f));
       } else {
         o.D = splat(0.0f);
         o.dval = splat_i(0);
+        o.dmeas = splat_i(0);
       }
       // Eq. 10.4 and the activity-modulated learning rate.
       vf ac = ld(r.act + x);
@@ -682,7 +692,7 @@ void YuvdBackground::first_frame(const cv::Mat& depth) {
   }
 }
 
-void YuvdBackground::learn(const cv::Mat& depth) {
+void YuvdBackground::learn(const cv::Mat& depth, const cv::Mat& measured) {
   const YuvdBackgroundParams& p = params_;
   const int K = p.num_gaussians;
   Consts c{};
@@ -721,6 +731,7 @@ void YuvdBackground::learn(const cv::Mat& depth) {
     r.V = planes_[2].ptr<uint8_t>(y);
     r.PY = prev_y_.ptr<uint8_t>(y);
     r.D = depth.empty() ? buf_->zero_depth.get() : depth.ptr<float>(y);
+    r.M = depth.empty() || measured.empty() ? nullptr : measured.ptr<uint8_t>(y);
     const std::size_t off = static_cast<std::size_t>(y) * stride_;
     for (int f = 0; f < fields; ++f)
       for (int k = 0; k < K; ++k) r.p[f][k] = buf_->plane(f, k, K) + off;
@@ -761,7 +772,7 @@ void YuvdBackground::clean_up(cv::Mat& fg_mask) {
   }
 }
 
-Status YuvdBackground::apply(const cv::Mat& bgr, const cv::Mat& depth, cv::Mat& fg_mask) {
+Status YuvdBackground::check_input(const cv::Mat& bgr, const cv::Mat& depth) const {
   if (bgr.empty()) return bad_input("", 0, "frame", "empty frame");
   if (bgr.type() != CV_8UC3)
     return bad_input("", 0, "frame", "expected a BGR CV_8UC3 image, got " + describe(bgr));
@@ -779,6 +790,19 @@ Status YuvdBackground::apply(const cv::Mat& bgr, const cv::Mat& depth, cv::Mat& 
                      "frame size changed from " + std::to_string(width_) + "x" +
                          std::to_string(height_) + " to " + std::to_string(bgr.cols) + "x" +
                          std::to_string(bgr.rows) + " (reset() the model first)");
+  return Status::Ok();
+}
+
+Status YuvdBackground::apply(const cv::Mat& bgr, const cv::Mat& depth, cv::Mat& fg_mask) {
+  return apply(bgr, depth, cv::Mat(), fg_mask);
+}
+
+Status YuvdBackground::apply(const cv::Mat& bgr, const cv::Mat& depth, const cv::Mat& measured,
+                             cv::Mat& fg_mask) {
+  if (Status s = check_input(bgr, depth); !s) return s;
+  if (!measured.empty() && (measured.type() != CV_8UC1 || measured.size() != bgr.size()))
+    return bad_input("", 0, "depth_measured",
+                     "expected a CV_8UC1 mask of the frame's size, got " + describe(measured));
   if (&fg_mask == &raw_mask_)
     return bad_input("", 0, "fg_mask", "must not be the model's own raw mask");
 
@@ -789,14 +813,62 @@ Status YuvdBackground::apply(const cv::Mat& bgr, const cv::Mat& depth, cv::Mat& 
   if (frames_ == 0) {
     allocate(bgr.cols, bgr.rows);
     if (!depth.empty()) add_depth_planes();
-    first_frame(depth);
+    if (!depth.empty() && !measured.empty()) {
+      // Unmeasured depth on the first frame: no statistics there (as for an invalid depth).
+      cv::Mat d = depth.clone();
+      d.setTo(0.0f, measured == 0);
+      first_frame(d);
+    } else {
+      first_frame(depth);
+    }
     raw_mask_.setTo(0);
   } else {
     if (!depth.empty() && !has_depth_) add_depth_planes();
-    learn(depth);
+    learn(depth, measured);
   }
   ++frames_;
   clean_up(fg_mask);
+  return Status::Ok();
+}
+
+Status YuvdBackground::colour_changes(const cv::Mat& bgr, cv::Mat& changed) const {
+  if (Status s = check_input(bgr, cv::Mat()); !s) return s;
+  changed.create(bgr.rows, bgr.cols, CV_8UC1);
+  if (frames_ == 0) {
+    changed.setTo(255);
+    return Status::Ok();
+  }
+  const YuvdBackgroundParams& p = params_;
+  const int K = p.num_gaussians;
+  const float T = p.match_threshold, ymin = p.min_chroma_luminance, bg_w = p.background_weight;
+  cv::Mat yuv;
+  cv::cvtColor(bgr, yuv, cv::COLOR_BGR2YUV);
+  for (int y = 0; y < height_; ++y) {
+    const uint8_t* px = yuv.ptr<uint8_t>(y);
+    uint8_t* out = changed.ptr<uint8_t>(y);
+    const std::size_t off = static_cast<std::size_t>(y) * stride_;
+    for (int x = 0; x < width_; ++x) {
+      const float Y = px[3 * x], U = px[3 * x + 1], V = px[3 * x + 2];
+      uint8_t differs = 255;
+      float cum = 0.0f;
+      for (int k = 0; k < K && cum < bg_w; ++k) {
+        const std::size_t i = off + x;
+        const float w = buf_->plane(kW, k, K)[i];
+        cum += w;
+        if (!(w > 0.0f)) continue;
+        const float dy = Y - buf_->plane(kMY, k, K)[i];
+        if (!(dy * dy < T * buf_->plane(kVY, k, K)[i])) continue;
+        const float my = buf_->plane(kMY, k, K)[i];
+        if (Y >= ymin && my >= ymin) {
+          const float du = U - buf_->plane(kMU, k, K)[i], dv = V - buf_->plane(kMV, k, K)[i];
+          if (!(du * du + dv * dv < T * buf_->plane(kVC, k, K)[i])) continue;
+        }
+        differs = 0;
+        break;
+      }
+      out[x] = differs;
+    }
+  }
   return Status::Ok();
 }
 

@@ -114,8 +114,21 @@ class YuvdBackground {
   // is all background). depth: empty, or CV_32FC1 metres of the frame's size. Errors (bad type,
   // empty frame, size other than the first frame's) leave the model unchanged.
   Status apply(const cv::Mat& bgr, const cv::Mat& depth, cv::Mat& fg_mask);
+  // The same where depth was measured only inside `measured` (CV_8UC1 of the frame's size,
+  // nonzero = measured; empty = everywhere). Outside it the pixel is matched on colour alone and
+  // the Gaussians' depth statistics (mean, variance, valid fraction) are left as they were: depth
+  // there is unknown, not invalid.
+  Status apply(const cv::Mat& bgr, const cv::Mat& depth, const cv::Mat& measured, cv::Mat& fg_mask);
   // Colour only for this frame (same as an all-invalid depth image once depth has been seen).
   Status apply(const cv::Mat& bgr, cv::Mat& fg_mask) { return apply(bgr, cv::Mat(), fg_mask); }
+
+  // Where this frame's colour differs from the background (CV_8UC1, 255 = differs), before it is
+  // learnt, without changing the model: a pixel is 255 unless its colour matches one of the
+  // background Gaussians with the plain tolerance (no depth, so no widening where depth agrees).
+  // This is where foreground can be; a foreground pixel outside it would have to be one whose
+  // colour is the background's and whose depth alone is nearer (camouflage). All 255 before the
+  // first frame. Same errors as apply().
+  Status colour_changes(const cv::Mat& bgr, cv::Mat& changed) const;
 
   // Forgets everything: the next frame starts a new model (and may have another size).
   void reset();
@@ -139,7 +152,8 @@ class YuvdBackground {
   void allocate(int width, int height);
   void add_depth_planes();
   void first_frame(const cv::Mat& depth);
-  void learn(const cv::Mat& depth);
+  void learn(const cv::Mat& depth, const cv::Mat& measured);
+  Status check_input(const cv::Mat& bgr, const cv::Mat& depth) const;
   void clean_up(cv::Mat& fg_mask);
 
   struct Buffers;

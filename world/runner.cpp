@@ -1,5 +1,7 @@
 #include "world/runner.h"
 
+#include "world/video_writer.h"
+
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -84,9 +86,7 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
   if (options.video && !out.empty()) {
     topdown = std::make_unique<TopdownRenderer>(world);
     const auto path = (out / "topdown.avi").string();
-    // OpenCV's own MJPEG writer: no codec library needed.
-    if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                    scenario.record_rate_hz, topdown->size())) {
+    if (!open_view_video(video, path, scenario.record_rate_hz, topdown->size())) {
       return internal_error("cannot open video writer for " + path);
     }
   }

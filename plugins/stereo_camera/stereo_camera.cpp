@@ -1,7 +1,10 @@
 #include "plugins/stereo_camera/stereo_camera.h"
 
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <mutex>
+#include <thread>
 
 #include "plugins/builtin.h"
 #include "vision/image_sources.h"
@@ -74,16 +77,74 @@ uint64_t camera_noise_seed(uint64_t scenario_seed, const std::string& camera_id)
 }
 
 Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
-                       vision::StereoFrame* frame) {
-  auto d = matcher.compute(frame->left, frame->right);
+                       vision::StereoFrame* frame, const cv::Mat& wanted) {
+  cv::Mat measured;
+  auto d = wanted.empty() ? matcher.compute(frame->left, frame->right)
+                          : matcher.compute_in(frame->left, frame->right, wanted, &measured);
   if (!d) return d.error();
   // New images: the frame may share its buffers with another consumer's.
   frame->disparity = *d;
   frame->depth = vision::depth_from_disparity(*d, model);
+  frame->depth_measured = measured;
   return Status::Ok();
 }
 
 // ---- CameraRig ----
+
+// One persistent thread per camera, so that its OpenGL context is always used from the same
+// thread: run() hands it a job and waits for nothing; wait() blocks until the job is done.
+class CameraThread {
+ public:
+  CameraThread() : thread_([this] { loop(); }) {}
+  ~CameraThread() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      quit_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void run(std::function<void()> job) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      job_ = std::move(job);
+      busy_ = true;
+    }
+    cv_.notify_all();
+  }
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    cv_.wait(lock, [this] { return !busy_; });
+  }
+
+ private:
+  void loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      cv_.wait(lock, [this] { return quit_ || (busy_ && job_); });
+      if (quit_) return;
+      std::function<void()> job = std::move(job_);
+      job_ = nullptr;
+      lock.unlock();
+      job();
+      lock.lock();
+      busy_ = false;
+      cv_.notify_all();
+    }
+  }
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::function<void()> job_;
+  bool busy_ = false, quit_ = false;
+  std::thread thread_;
+};
+
+CameraRig::CameraRig(CameraRigOptions options) : options_(std::move(options)) {}
+CameraRig::~CameraRig() = default;
+
+void CameraRig::add_worker(const std::string& camera_id, FrameConsumer worker) {
+  workers_.emplace_back(camera_id, std::move(worker));
+}
 
 void CameraRig::set_recorded_source(const std::string& camera_id, std::unique_ptr<vision::FrameSource> source) {
   recorded_[camera_id] = std::move(source);
@@ -119,6 +180,7 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
   for (const auto& spec : scenario.cameras) {
     bool wanted = options_.video && !out_dir.empty();
     for (const auto& [id, consumer] : consumers_) wanted = wanted || id.empty() || id == spec.id;
+    for (const auto& [id, worker] : workers_) wanted = wanted || id.empty() || id == spec.id;
     if (!wanted) continue;
     auto cam = std::make_unique<Camera>();
     cam->spec = spec;
@@ -145,6 +207,7 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
       }
     }
     frames_[spec.id] = 0;
+    if (options_.camera_threads && !cam->recorded) cam->thread = std::make_unique<CameraThread>();
     cameras_.push_back(std::move(cam));
   }
   return render_due(world);
@@ -152,33 +215,60 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
 
 Status CameraRig::after_step(const World& world) { return render_due(world); }
 
-Status CameraRig::render_due(const World& world) {
-  for (auto& cam : cameras_) {
-    if (world.time() < cam->next_tick || cam->ended) continue;
-    vision::StereoFrame frame;
-    if (cam->recorded) {
-      auto more = cam->recorded->next(&frame);
+void CameraRig::camera_work(Camera& cam, const World& world) {
+  vision::StereoFrame& frame = cam.frame;
+  frame = vision::StereoFrame();
+  cam.status = Status::Ok();
+  auto run = [&]() -> Status {
+    if (cam.recorded) {
+      auto more = cam.recorded->next(&frame);
       if (!more) return more.error();
       if (!*more) {
-        cam->ended = true;
-        recorded_ended_ = true;
-        continue;
+        cam.ended = true;
+        return Status::Ok();
       }
-      if (frame.left.cols != cam->spec.width || frame.left.rows != cam->spec.height)
-        return bad_input(cam->recorded->describe(), 0, "",
-                         "frame " + std::to_string(cam->index) + " is " + std::to_string(frame.left.cols) + "x" +
-                             std::to_string(frame.left.rows) + " but camera " + cam->spec.id + " is " +
-                             std::to_string(cam->spec.width) + "x" + std::to_string(cam->spec.height));
+      if (frame.left.cols != cam.spec.width || frame.left.rows != cam.spec.height)
+        return bad_input(cam.recorded->describe(), 0, "",
+                         "frame " + std::to_string(cam.index) + " is " + std::to_string(frame.left.cols) + "x" +
+                             std::to_string(frame.left.rows) + " but camera " + cam.spec.id + " is " +
+                             std::to_string(cam.spec.width) + "x" + std::to_string(cam.spec.height));
     } else {
-      const RenderScene scene = build_render_scene(world, cam->scene_options);
-      if (Status s = cam->renderer->render(scene, cam->model, &frame); !s) return s;
+      const RenderScene scene = build_render_scene(world, cam.scene_options);
+      if (Status s = cam.renderer->render(scene, cam.model, &frame); !s) return s;
     }
-    frame.index = cam->index;
+    frame.index = cam.index;
     frame.stamp_ns = world.time();
-    if (cam->video.isOpened()) cam->video.write(frame.left);
+    if (cam.video.isOpened()) cam.video.write(frame.left);
+    for (const auto& [id, worker] : workers_) {
+      if (!id.empty() && id != cam.spec.id) continue;
+      if (Status s = worker(cam.spec, frame, world); !s) return s;
+    }
+    return Status::Ok();
+  };
+  cam.status = run();
+}
+
+Status CameraRig::render_due(const World& world) {
+  std::vector<Camera*> due;
+  for (auto& cam : cameras_)
+    if (world.time() >= cam->next_tick && !cam->ended) due.push_back(cam.get());
+  // Every due camera's frame and work, side by side on their threads (recorded ones here).
+  for (Camera* cam : due)
+    if (cam->thread) cam->thread->run([this, cam, &world] { camera_work(*cam, world); });
+  for (Camera* cam : due)
+    if (!cam->thread) camera_work(*cam, world);
+  for (Camera* cam : due)
+    if (cam->thread) cam->thread->wait();
+  // Then in camera order: errors, the consumers, the clocks.
+  for (Camera* cam : due) {
+    if (!cam->status) return cam->status;
+    if (cam->ended) {
+      recorded_ended_ = true;
+      continue;
+    }
     for (const auto& [id, consumer] : consumers_) {
       if (!id.empty() && id != cam->spec.id) continue;
-      if (Status s = consumer(cam->spec, frame, world); !s) return s;
+      if (Status s = consumer(cam->spec, cam->frame, world); !s) return s;
     }
     ++cam->index;
     ++frames_[cam->spec.id];
@@ -190,6 +280,7 @@ Status CameraRig::render_due(const World& world) {
 
 Status CameraRig::finish(const World& world) {
   for (auto& cam : cameras_) {
+    cam->thread.reset();
     if (cam->video.isOpened()) cam->video.release();
   }
   return Status::Ok();

@@ -75,9 +75,10 @@ class RenderedStereoSource : public vision::FrameSource {
 uint64_t camera_noise_seed(uint64_t scenario_seed, const std::string& camera_id);
 
 // Replaces the frame's disparity and depth with `matcher`'s, from its left and right images
-// (invalid disparity gives depth 0).
+// (invalid disparity gives depth 0). With a non-empty `wanted` mask, only there
+// (StereoMatcher::compute_in), and frame->depth_measured says where depth was measured.
 Status match_disparity(const vision::StereoMatcher& matcher, const vision::StereoCameraModel& model,
-                       vision::StereoFrame* frame);
+                       vision::StereoFrame* frame, const cv::Mat& wanted = cv::Mat());
 
 // Called with each rendered frame of a camera, the world as it is at the frame's time.
 using FrameConsumer = std::function<Status(const CameraSpec&, const vision::StereoFrame&, const World&)>;
@@ -85,13 +86,24 @@ using FrameConsumer = std::function<Status(const CameraSpec&, const vision::Ster
 struct CameraRigOptions {
   bool video = true;   // write DIR/cameras/<id>.avi (left view, MJPEG at the camera's rate)
   RendererOptions renderer;  // effects.seed is replaced per camera by camera_noise_seed()
+  // Each camera renders and runs its workers (add_worker) on a thread of its own, the cameras due
+  // at one step side by side; the consumers then run on the caller's thread in camera order.
+  // The same bytes come out either way (each camera's work reads only the world and its own state).
+  bool camera_threads = true;
 };
+
+class CameraThread;
 
 class CameraRig : public RunObserver {
  public:
-  explicit CameraRig(CameraRigOptions options = {}) : options_(std::move(options)) {}
+  explicit CameraRig(CameraRigOptions options = {});
   // Frames of `camera_id` (or of every camera when empty) go to `consumer`, in time order.
   void add_consumer(const std::string& camera_id, FrameConsumer consumer);
+  // Like a consumer, but run on the camera's own thread (camera_threads) beside the other cameras'
+  // work, before any consumer sees the frame: it may read the world and change only state of its
+  // own camera's (a vision pipeline's tick). Errors are reported in camera order.
+  void add_worker(const std::string& camera_id, FrameConsumer worker);
+  ~CameraRig() override;
   // True when the rig has anything to do (video on, or a consumer attached).
   bool active() const { return options_.video || !consumers_.empty(); }
   // Takes `camera_id`'s frames from a recorded source instead of rendering them: one recorded
@@ -120,8 +132,14 @@ class CameraRig : public RunObserver {
     std::filesystem::path video_path;
     SimTime next_tick = 0;
     int64_t index = 0;
+    vision::StereoFrame frame;  // this step's
+    Status status;              // of this step's work
+    std::unique_ptr<CameraThread> thread;  // set with camera_threads
   };
   Status render_due(const World& world);
+  // Renders (or reads) camera `cam`'s frame and runs its workers; the result in cam.status.
+  void camera_work(Camera& cam, const World& world);
+  std::vector<std::pair<std::string, FrameConsumer>> workers_;
 
   CameraRigOptions options_;
   std::vector<std::pair<std::string, FrameConsumer>> consumers_;

@@ -81,7 +81,8 @@ class TrackerSensor : public VisionSensor {
     const vision::StereoFrame* in = frame;
     if (matcher_) {
       matched_ = *frame;
-      if (Status s = render::match_disparity(*matcher_, model_, &matched_); !s) return s;
+      const cv::Mat wanted = tracker_->depth_wanted(*frame);
+      if (Status s = render::match_disparity(*matcher_, model_, &matched_, wanted); !s) return s;
       in = &matched_;
     }
     auto tracks = tracker_->process(*in);
@@ -114,6 +115,13 @@ TrackerKind planview_kind() {
       {"edge_radius", ParamType::kInteger, 3.0, 0, 50, "depth-edge filter window (px, 0 = off)"},
       {"edge_tolerance_px", ParamType::kNumber, 1.0, 0, 64, "depth-edge filter: disparity px behind the nearest depth"},
       {"track_threshold", ParamType::kNumber, 1.4, 0, 100, "update a track only when its score is below this"},
+      {"stereo_where", ParamType::kString, std::string("foreground"), 0, 0,
+       "foreground (match stereo only where the colour differs from the background, the whole image every "
+       "full_stereo_every frames) or everywhere"},
+      {"full_stereo_first", ParamType::kInteger, 10.0, 1, 100000,
+       "with stereo_where: foreground, the first frames matched whole (the background's depth)"},
+      {"full_stereo_every", ParamType::kInteger, 60.0, 0, 100000,
+       "with stereo_where: foreground, one frame in this many matched whole after the first ones (0 = none)"},
   };
   k.make = [](const ParamSet& p, const SensorContext& ctx) -> Result<std::unique_ptr<vision::Tracker>> {
     vision::PlanViewSystemParams sp;
@@ -126,6 +134,12 @@ TrackerKind planview_kind() {
     sp.tracking.camera = ctx.camera.id;
     sp.tracking.template_size = p.integer("template_size");
     sp.tracking.track_threshold = p.number("track_threshold");
+    const std::string where = p.string("stereo_where");
+    if (where != "foreground" && where != "everywhere")
+      return bad_input("", 0, "stereo_where", "expected foreground or everywhere, got '" + where + "'");
+    sp.depth_region.foreground_only = where == "foreground";
+    sp.depth_region.full_first = p.integer("full_stereo_first");
+    sp.depth_region.full_every = p.integer("full_stereo_every");
     auto sys = vision::PlanViewSystem::create(ctx.model, sp);
     if (!sys) return sys.error();
     return std::unique_ptr<vision::Tracker>(std::make_unique<vision::PlanViewSystem>(std::move(*sys)));

@@ -1,10 +1,12 @@
 #include "plugins/vision_sensors/vision_sensor.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
 
 #include "common/rng.h"
+#include "world/video_writer.h"
 
 namespace vigil::sensors {
 
@@ -114,26 +116,30 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
       if (!rig) return internal_error("camera " + cam.id + ": a frame-consuming vision sensor needs the camera rig");
       VisionSensorHost* self = host.get();
       Attached* att = a.get();
-      rig->add_consumer(cam.id, [self, att](const CameraSpec&, const vision::StereoFrame& frame, const World& world) {
-        std::vector<vision::Track> fresh;
-        if (Status s = att->sensor->tick(&frame, world, &fresh); !s) return Status(in_context(*att, world, s.error()));
-        ++att->index;
+      // The tick (and the annotated video) on the camera's own thread; the rules, the tracks'
+      // output and the events in camera order on the simulation's.
+      rig->add_worker(cam.id, [self, att](const CameraSpec&, const vision::StereoFrame& frame, const World& world) {
+        att->fresh.clear();
+        if (Status s = att->sensor->tick(&frame, world, &att->fresh); !s) return Status(in_context(*att, world, s.error()));
         if (self->videos_ && self->writing_) {
-          const cv::Mat img = att->sensor->annotate(frame, fresh);
+          const cv::Mat img = att->sensor->annotate(frame, att->fresh);
           if (!img.empty()) {
             if (!att->video.isOpened()) {
               const std::filesystem::path dir = self->out_dir_ / "cameras";
               std::error_code ec;
               std::filesystem::create_directories(dir, ec);
               att->video_path = (dir / (att->camera.id + "_" + att->camera.plugin + ".avi")).string();
-              if (!att->video.open(att->video_path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                                   att->camera.rate_hz, img.size()))
+              if (!open_view_video(att->video, att->video_path, att->camera.rate_hz, img.size()))
                 return Status(bad_input(att->video_path, 0, "", "cannot open the video for writing"));
             }
             att->video.write(img);
           }
         }
-        return self->emit(att, world, frame.stamp_ns, &fresh);
+        return Status::Ok();
+      });
+      rig->add_consumer(cam.id, [self, att](const CameraSpec&, const vision::StereoFrame& frame, const World& world) {
+        ++att->index;
+        return self->emit(att, world, frame.stamp_ns, &att->fresh);
       });
     }
     host->sensors_.push_back(std::move(a));
@@ -161,6 +167,7 @@ Status VisionSensorHost::start(const World& world, const std::filesystem::path& 
   tracks_.clear();
   events_.clear();
   const vision::ActivityRuleParams rp = activity_rule_params(world);
+  robot_radius_ = rp.robot_radius;
   for (auto& a : sensors_) {
     auto rules = vision::ActivityRules::create(rp, a->camera.id, a->model);
     if (!rules) return in_context(*a, world, rules.error());
@@ -190,15 +197,23 @@ Status VisionSensorHost::after_step(const World& world) {
 }
 
 Status VisionSensorHost::emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh) {
+  // The robots' own pose estimates, as they publish them: not the truth.
+  std::vector<vision::ActivityRules::RobotPosition> robots;
+  for (const RobotEntity& r : world.robots()) {
+    // A controller's localised estimate when it reports one, else the wheel odometry.
+    const RobotReport* rep = world.last_report(r.spec.id);
+    if (rep && rep->localized) robots.push_back({rep->pose.x, rep->pose.y});
+    else robots.push_back({r.state.odometry.x, r.state.odometry.y});
+  }
+  // A bag-sized track where a robot says it is, is that robot (a robot seen through a doorway,
+  // or far off with its mast unresolved, is as low as a bag): reported as a robot, as the rules
+  // take it (ActivityRuleParams::robot_radius).
+  for (vision::Track& t : *fresh) {
+    if (t.cls != vision::TrackClass::kBag) continue;
+    for (const auto& r : robots)
+      if (std::hypot(t.x - r.x, t.y - r.y) < robot_radius_) t.cls = vision::TrackClass::kRobot;
+  }
   if (a->rules) {
-    // The robots' own pose estimates, as they publish them: not the truth.
-    std::vector<vision::ActivityRules::RobotPosition> robots;
-    for (const RobotEntity& r : world.robots()) {
-      // A controller's localised estimate when it reports one, else the wheel odometry.
-      const RobotReport* rep = world.last_report(r.spec.id);
-      if (rep && rep->localized) robots.push_back({rep->pose.x, rep->pose.y});
-      else robots.push_back({r.state.odometry.x, r.state.odometry.y});
-    }
     auto events = a->rules->update(stamp_ns, *fresh, robots);
     if (!events) {
       Error e = events.error();

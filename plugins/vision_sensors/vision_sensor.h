@@ -119,6 +119,7 @@ class VisionSensorHost : public RunObserver {
     int64_t index = 0;
     cv::VideoWriter video;  // the annotated view (set_videos)
     std::string video_path;
+    std::vector<vision::Track> fresh;  // this frame's tracks, from the worker to the consumer
   };
   // One tick's tracks of a camera: written, kept, and given to the camera's rules.
   Status emit(Attached* a, const World& world, int64_t stamp_ns, std::vector<vision::Track>* fresh);
@@ -126,6 +127,7 @@ class VisionSensorHost : public RunObserver {
   static Error in_context(const Attached& a, const World& world, Error e);
 
   std::vector<std::unique_ptr<Attached>> sensors_;
+  double robot_radius_ = 0.5;  // m, the rules' robot_radius (set at start())
   std::vector<vision::Track> tracks_;
   std::vector<vision::Event> events_;
   std::function<Status(const vision::Event&)> sink_;

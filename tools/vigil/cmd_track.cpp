@@ -24,6 +24,7 @@
 #include "vision/mser/mser_tracker.h"
 #include "vision/planview_system.h"
 #include "vision/track_io.h"
+#include "world/video_writer.h"
 
 namespace vigil::cli {
 
@@ -70,7 +71,7 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
       last = system.annotate(frame.left);
       if (!video.isOpened()) {
         const std::string path = (out / "annotated.avi").string();
-        if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 15, last.size())) {
+        if (!open_view_video(video, path, 15, last.size())) {
           std::fclose(mot);
           throw Exit{report(bad_input(path, 0, "--out", "cannot open the video for writing"))};
         }
@@ -201,7 +202,7 @@ void add_track_command(CLI::App& app) {
         const cv::Mat img = system->annotate(frame, *tracks);
         if (!video.isOpened()) {
           const std::string path = (out / "annotated.avi").string();
-          if (!video.open(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, img.size()))
+          if (!open_view_video(video, path, fps, img.size()))
             throw Exit{report(bad_input(path, 0, "--out", "cannot open the video for writing"))};
         }
         video.write(img);

@@ -33,5 +33,6 @@ void add_bench_plan_command(CLI::App* bench);  // vigil bench plan
 void add_bench_patrol_command(CLI::App* bench);  // vigil bench patrol
 void add_bench_allocate_command(CLI::App* bench);  // vigil bench allocate
 void add_bench_mser_command(CLI::App* bench);  // vigil bench mser
+void add_bench_rate_command(CLI::App* bench);  // vigil bench camera-rate
 
 }  // namespace vigil::cli
