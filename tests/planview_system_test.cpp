@@ -25,15 +25,21 @@ Scenario load(const std::string& name) {
   return *s;
 }
 
-// dis_left_bag from cam_corridor at 320x240 with SGBM: A walks towards the camera carrying bag1
-// and puts it down in view.
-TEST(PlanViewSystem, TracksThePersonAndTheBagFromSgbmDepth) {
+// dis_left_bag with every camera at 320x240 for `duration` seconds.
+Scenario small_left_bag(double duration) {
   Scenario sc = load("dis_left_bag");
   for (auto& c : sc.cameras) {
     c.width = 320;
     c.height = 240;
   }
-  sc.duration = 24;
+  sc.duration = duration;
+  return sc;
+}
+
+// dis_left_bag from cam_corridor at 320x240 with SGBM: A walks towards the camera carrying bag1
+// and puts it down in view.
+TEST(PlanViewSystem, TracksThePersonAndTheBagFromSgbmDepth) {
+  Scenario sc = small_left_bag(24);
   render::RenderedSourceOptions ro;
   StereoMatcherParams mp;
   mp.num_disparities = 32;
@@ -97,12 +103,7 @@ TEST(PlanViewSystem, TracksThePersonAndTheBagFromSgbmDepth) {
 // other: far from the camera the coarse 320x240 depth gives both systems ghosts, which drift
 // differently.
 TEST(PlanViewSystem, StereoWhereTheColourChangesTracksAsWellAsTheWholeImage) {
-  Scenario sc = load("dis_left_bag");
-  for (auto& c : sc.cameras) {
-    c.width = 320;
-    c.height = 240;
-  }
-  sc.duration = 16;
+  Scenario sc = small_left_bag(16);
   auto src = render::RenderedStereoSource::open(sc, "cam_corridor");
   ASSERT_TRUE(src.ok()) << src.error().str();
   StereoMatcherParams mp;
