@@ -1,11 +1,14 @@
-// planning/patrol: graph files, tours, strategies, idleness.
+// planning/patrol: graph files, tours, balanced partitions, strategies, idleness.
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <limits>
 #include <numeric>
 #include <set>
 
 #include "common/rng.h"
 #include "planning/patrol/idleness.h"
+#include "planning/patrol/partition.h"
 #include "planning/patrol/patrol_graph.h"
 #include "planning/patrol/strategy.h"
 #include "planning/patrol/tour.h"
@@ -212,14 +215,14 @@ TEST(Strategy, CyclicPaceSlowsTheRobotNearerTheOneAhead) {
   const double at = (*s)->phase(0);
   EXPECT_NEAR((*s)->phase(1.5), std::fmod(at - 1.5 + L, L), 1e-9);
   EXPECT_DOUBLE_EQ((*s)->pace(at, {}), 1.0);                                    // alone
-  EXPECT_DOUBLE_EQ((*s)->pace(at, {std::fmod(at + L / 2, L)}), 1.0);            // even
-  EXPECT_LT((*s)->pace(at, {std::fmod(at + L / 4, L)}), 1.0);                   // a quarter ahead
-  EXPECT_DOUBLE_EQ((*s)->pace(at, {std::fmod(at + 3 * L / 4, L)}), 1.0);        // a quarter behind
-  EXPECT_DOUBLE_EQ((*s)->pace(at, {-1.0}), 1.0);                                // a mate off the walk
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {{"b", std::fmod(at + L / 2, L)}}), 1.0);            // even
+  EXPECT_LT((*s)->pace(at, {{"b", std::fmod(at + L / 4, L)}}), 1.0);                   // a quarter ahead
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {{"b", std::fmod(at + 3 * L / 4, L)}}), 1.0);        // a quarter behind
+  EXPECT_DOUBLE_EQ((*s)->pace(at, {{"b", -1.0}}), 1.0);                         // a mate off the walk
   // Other strategies have no shared walk.
   auto g = make_strategy("greedy", setup);
   EXPECT_LT((*g)->phase(0), 0);
-  EXPECT_DOUBLE_EQ((*g)->pace(0, {1.0}), 1.0);
+  EXPECT_DOUBLE_EQ((*g)->pace(0, {{"b", 1.0}}), 1.0);
   sp.min_pace = 2;
   EXPECT_FALSE(make_strategy("cyclic", setup, sp));
 }
@@ -238,14 +241,245 @@ TEST(Strategy, PartitionGivesEachRobotItsOwnRegion) {
       regions[me].insert(at);
     }
   }
-  // Together they cover the line; each covers less than all of it.
-  std::set<int> all = regions[0];
-  all.insert(regions[1].begin(), regions[1].end());
-  EXPECT_EQ(all.size(), 10u);
-  EXPECT_LT(regions[0].size(), 10u);
-  EXPECT_LT(regions[1].size(), 10u);
-  EXPECT_TRUE(regions[0].count(0));
-  EXPECT_TRUE(regions[1].count(9));
+  // The line cut in the middle: a at the west end gets 0..4, b at the east end 5..9, no
+  // vertex shared.
+  EXPECT_EQ(regions[0], (std::set<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(regions[1], (std::set<int>{5, 6, 7, 8, 9}));
+  // The same members in other places get the other regions.
+  auto s = make_strategy("partition", setup);
+  (*s)->set_team({"a", "b"}, {{18, 0}, {0, 0}}, 0);
+  PatrolKnowledge k;
+  k.last_visit.assign(10, 0);
+  EXPECT_GE((*s)->next(-1, {}, k), 5);
+}
+
+// A random tree (each vertex joined to an earlier one), sometimes with a few extra edges.
+PatrolGraph random_graph(Rng& rng, int n, int extra) {
+  std::vector<Vec2> p;
+  std::vector<std::pair<int, int>> e;
+  for (int i = 0; i < n; ++i) p.push_back({rng.uniform(0, 30), rng.uniform(0, 30)});
+  for (int i = 1; i < n; ++i) e.push_back({static_cast<int>(rng.uniform(0, i - 1e-9)), i});
+  for (int x = 0; x < extra; ++x) {
+    const int a = static_cast<int>(rng.uniform(0, n - 1e-9)), b = static_cast<int>(rng.uniform(0, n - 1e-9));
+    if (a == b || std::find(e.begin(), e.end(), std::pair<int, int>{a, b}) != e.end() ||
+        std::find(e.begin(), e.end(), std::pair<int, int>{b, a}) != e.end()) {
+      continue;
+    }
+    e.push_back({a, b});
+  }
+  return *PatrolGraph::from_edges(p, e);
+}
+
+bool region_connected(const PatrolGraph& g, const std::vector<int>& region, int r) {
+  std::vector<int> in;
+  for (size_t v = 0; v < region.size(); ++v) {
+    if (region[v] == r) in.push_back(static_cast<int>(v));
+  }
+  if (in.empty()) return false;
+  std::set<int> seen{in[0]};
+  std::vector<int> stack{in[0]};
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    for (const GraphEdge& e : g.vertex(static_cast<size_t>(v)).edges) {
+      if (region[static_cast<size_t>(e.to)] == r && seen.insert(e.to).second) stack.push_back(e.to);
+    }
+  }
+  return seen.size() == in.size();
+}
+
+TEST(Partition, RegionsAreConnectedDisjointAndEachWalkVisitsItsRegion) {
+  Rng rng(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 6 + trial % 25, k = 1 + trial % 7;
+    const PatrolGraph g = random_graph(rng, n, trial % 3 == 0 ? 4 : 0);
+    GraphDistances d(g);
+    const GraphPartition p = partition_graph(g, d, k);
+    ASSERT_EQ(p.count(), std::min(k, n)) << "trial " << trial;
+    ASSERT_EQ(p.region.size(), static_cast<size_t>(n));
+    double longest = 0;
+    for (int r = 0; r < p.count(); ++r) {
+      EXPECT_TRUE(region_connected(g, p.region, r)) << "trial " << trial << " region " << r;
+      std::set<int> in, walked(p.walks[r].vertices.begin(), p.walks[r].vertices.end());
+      for (int v = 0; v < n; ++v) {
+        if (p.region[v] == r) in.insert(v);
+      }
+      EXPECT_FALSE(in.empty()) << "trial " << trial << " region " << r;
+      for (int v : in) EXPECT_TRUE(walked.count(v)) << "trial " << trial << " region " << r << " vertex " << v;
+      longest = std::max(longest, p.walks[r].length);
+    }
+    EXPECT_DOUBLE_EQ(p.longest, longest);
+    // The same inputs, the same regions.
+    EXPECT_EQ(partition_graph(g, d, k).region, p.region);
+  }
+}
+
+// The best connected partition into k regions by enumeration (small graphs only): the fewest
+// regions under `min_size` vertices (a star's leaves cannot all have a second vertex), then
+// the least longest walk.
+struct Best {
+  int undersized = 1 << 30;
+  double longest = std::numeric_limits<double>::infinity();
+};
+Best best_partition(const PatrolGraph& g, const GraphDistances& d, int k, int min_size) {
+  const int n = static_cast<int>(g.size());
+  const CostMatrix c = CostMatrix::from(d);
+  std::vector<int> region(static_cast<size_t>(n), 0);
+  Best best;
+  // Region labels in first-use order (region of vertex 0 is 0, ...), so each partition once.
+  std::function<void(int, int)> go = [&](int v, int used) {
+    if (v == n) {
+      if (used != k) return;
+      Best here;
+      here.undersized = 0;
+      here.longest = 0;
+      for (int r = 0; r < k; ++r) {
+        std::vector<int> in;
+        for (int u = 0; u < n; ++u) {
+          if (region[static_cast<size_t>(u)] == r) in.push_back(u);
+        }
+        if (!region_connected(g, region, r)) return;
+        here.undersized += static_cast<int>(in.size()) < min_size;
+        here.longest = std::max(here.longest, in.size() <= 1 ? 0.0 : tour_cost(c, solve_tour(c, in)));
+      }
+      if (here.undersized < best.undersized || (here.undersized == best.undersized && here.longest < best.longest)) best = here;
+      return;
+    }
+    for (int r = 0; r <= std::min(used, k - 1); ++r) {
+      region[static_cast<size_t>(v)] = r;
+      go(v + 1, std::max(used, r + 1));
+    }
+  };
+  go(0, 0);
+  return best;
+}
+
+TEST(Partition, LongestRegionWalkNearTheBestOnSmallGraphs) {
+  Rng rng(3);
+  double worst_ratio = 1, sum_ratio = 0;
+  int cases = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const int n = 7 + trial % 4, k = 2 + trial % 3;
+    const PatrolGraph g = random_graph(rng, n, trial % 4 == 0 ? 2 : 0);
+    GraphDistances d(g);
+    const GraphPartition p = partition_graph(g, d, k);
+    const int min_size = n >= 2 * k ? 2 : 1;
+    const Best best = best_partition(g, d, k, min_size);
+    ASSERT_TRUE(std::isfinite(best.longest));
+    int undersized = 0;
+    for (int r = 0; r < k; ++r) undersized += std::count(p.region.begin(), p.region.end(), r) < min_size;
+    EXPECT_EQ(undersized, best.undersized) << "trial " << trial;
+    if (undersized != best.undersized) {
+      for (size_t v = 0; v < g.size(); ++v) {
+        std::printf("v%zu r%d:", v, p.region[v]);
+        for (auto& e : g.vertex(v).edges) std::printf(" %d(%.1f)", e.to, e.cost);
+        std::printf("\n");
+      }
+    }
+    if (undersized != best.undersized) continue;
+    EXPECT_GE(p.longest, best.longest - 1e-6) << "trial " << trial;
+    const double ratio = best.longest > 0 ? p.longest / best.longest : 1.0;
+    worst_ratio = std::max(worst_ratio, ratio);
+    sum_ratio += ratio;
+    ++cases;
+  }
+  EXPECT_LE(sum_ratio / cases, 1.03);
+  EXPECT_LE(worst_ratio, 1.25);
+  std::printf("partition over the enumerated best, %d graphs: mean %.3f, worst %.3f\n", cases, sum_ratio / cases, worst_ratio);
+}
+
+TEST(Partition, RealDiagGraphsSplitIntoRegionsNoLongerThanTheWalkOverTheTeam) {
+  VIGIL_REQUIRE_SHARED_DATA();
+  // A region's walk sets its idleness: the longest over the team size's share of the whole
+  // walk is what the cyclic strategy can at best reach (measured 0.55 to 1.05).
+  for (const char* name : {"DIAG_labs", "DIAG_floor1"}) {
+    auto g = PatrolGraph::read(test::shared_data() / "maps" / name / (std::string(name) + ".graph"));
+    ASSERT_TRUE(g) << g.error().str();
+    GraphDistances d(*g);
+    const double walk = closed_walk(*g, d).length;
+    for (int k : {1, 2, 4, 6, 8, 12}) {
+      const GraphPartition p = partition_graph(*g, d, k);
+      EXPECT_LE(p.longest, 1.1 * walk / k) << name << " " << k;
+    }
+  }
+}
+
+TEST(Partition, ShortDeadEndsShareARegionRatherThanStrandARobot) {
+  // A corridor of 6 vertices 8 m apart, each with a door 0.7 m off it: 12 vertices, but a
+  // robot alone on a corridor vertex and its door shuttles 0.7 m and never leaves either far
+  // enough for a visit to count. With regions of at least 3 m, 12 robots get 6 regions (one
+  // per corridor vertex would be too short) with two robots on some.
+  std::vector<Vec2> p;
+  std::vector<std::pair<int, int>> e;
+  for (int i = 0; i < 6; ++i) {
+    p.push_back({8.0 * i, 0});
+    p.push_back({8.0 * i, 0.7});
+    e.push_back({2 * i, 2 * i + 1});
+    if (i > 0) e.push_back({2 * i - 2, 2 * i});
+  }
+  auto g = PatrolGraph::from_edges(p, e);
+  ASSERT_TRUE(g);
+  GraphDistances d(*g);
+  PartitionOptions o;
+  o.min_walk = 3.0;
+  for (int team : {2, 3, 6, 12}) {
+    const GraphPartition plan = plan_regions(*g, d, team, o);
+    EXPECT_EQ(plan.slots(), team) << team;
+    for (int r = 0; r < plan.count(); ++r) {
+      EXPECT_GE(plan.walks[r].length, 3.0 - 1e-9) << team << " region " << r;
+      EXPECT_TRUE(region_connected(*g, plan.region, r)) << team;
+    }
+    // Each robot's share of a walk is at most the whole walk over the team (with the 10 % a
+    // shared walk counts), and less than shuttling alone allows nowhere.
+    const double walk = closed_walk(*g, d).length;
+    EXPECT_LE(plan.longest_share(), 1.1 * walk / team + 1e-9) << team;
+  }
+  EXPECT_LT(plan_regions(*g, d, 12, o).count(), 12);
+  // Without the least walk, 12 robots get 12 regions of one door each.
+  EXPECT_EQ(plan_regions(*g, d, 12).count(), 12);
+}
+
+TEST(Partition, RobotsSharingARegionSpreadAlongItsWalkAndPaceOnlyWithEachOther) {
+  // A ring of 8 vertices (a cycle, 4 m radius) for 2 robots, and the regions' plan of a
+  // single region: they share it as the cyclic strategy shares a walk.
+  std::vector<Vec2> p;
+  std::vector<std::pair<int, int>> e;
+  for (int i = 0; i < 8; ++i) p.push_back({std::cos(i * M_PI / 4) * 4, std::sin(i * M_PI / 4) * 4});
+  for (int i = 0; i < 8; ++i) e.push_back({i, (i + 1) % 8});
+  auto setup = PatrolSetup::make(*PatrolGraph::from_edges(p, e), {}, 1.0);
+  StrategyParams sp;
+  sp.min_region_walk = 20;  // more than half the ring: one region for both
+  ASSERT_EQ(setup->partition(2, 20)->count(), 1);
+  std::vector<double> phases;
+  for (int me = 0; me < 2; ++me) {
+    auto s = make_strategy("partition", setup, sp);
+    (*s)->set_team({"a", "b"}, {p[0], p[1]}, me);
+    phases.push_back((*s)->phase(0));
+    // A mate of another region (not a member here) does not slow it down; its region mate does.
+    const double L = setup->tour.length;
+    EXPECT_DOUBLE_EQ((*s)->pace(phases.back(), {{"z", std::fmod(phases.back() + 0.05 * L, L)}}), 1.0);
+    EXPECT_LT((*s)->pace(phases.back(), {{me == 0 ? "b" : "a", std::fmod(phases.back() + 0.05 * L, L)}}), 1.0);
+  }
+  // Half the ring apart.
+  const double L = setup->tour.length, gap = std::fmod(phases[1] - phases[0] + L, L);
+  EXPECT_NEAR(gap, L / 2, L / 8 + 1e-9);
+}
+
+TEST(Partition, MembersGetTheRegionsNearestThemOnePerMember) {
+  auto setup = line_setup(12, 2.0);
+  const auto part = setup->partition(3);
+  ASSERT_EQ(part->count(), 3);
+  // Three robots at the east end, the middle and the west end.
+  const std::vector<int> r = assign_regions(setup->graph, setup->distances, *part, {{22, 0}, {11, 0}, {0, 0}});
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_EQ(std::set<int>(r.begin(), r.end()).size(), 3u);
+  EXPECT_EQ(part->region[11], r[0]);
+  EXPECT_EQ(part->region[0], r[2]);
+  // More members than regions: the extra one gets none.
+  const auto one = setup->partition(1);
+  const std::vector<int> two = assign_regions(setup->graph, setup->distances, *one, {{0, 0}, {22, 0}});
+  EXPECT_EQ(two[0], 0);
+  EXPECT_EQ(two[1], -1);
 }
 
 TEST(Strategy, GreedyTradesIdlenessAgainstTravelAndAvoidsOthersTargets) {

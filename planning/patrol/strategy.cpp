@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <set>
+#include <tuple>
 
 #include "common/linear_assignment.h"
 
@@ -14,63 +16,32 @@ std::shared_ptr<const PatrolSetup> PatrolSetup::make(PatrolGraph g, CostMatrix t
   s->distances = GraphDistances(s->graph);
   s->travel = travel.size() == s->graph.size() ? std::move(travel) : CostMatrix::from(s->distances);
   s->tour = closed_walk(s->graph, s->distances);
+  s->partitions = std::make_shared<PartitionCache>();
   return s;
+}
+
+struct PatrolSetup::PartitionCache {
+  std::mutex mu;
+  std::map<std::tuple<int, long long, long long>, std::shared_ptr<const GraphPartition>> by_count;
+};
+
+std::shared_ptr<const GraphPartition> PatrolSetup::partition(int count, double min_walk, double shared_cost) const {
+  std::lock_guard<std::mutex> lock(partitions->mu);
+  auto& p = partitions->by_count[{count, std::llround(min_walk * 1000.0), std::llround(shared_cost * 1000.0)}];
+  if (!p) {
+    PartitionOptions o;
+    o.min_walk = min_walk;
+    o.shared_cost = shared_cost;
+    p = std::make_shared<const GraphPartition>(plan_regions(graph, distances, count, o));
+  }
+  return p;
 }
 
 namespace {
 
-// Where each member sits along a closed walk (the arc of its nearest walk vertex, first
-// occurrence), and the even spacing that moves the team least: the offsets base + k L / N in
-// the members' order along the walk.
-struct Spread {
-  double base = 0;
-  int rank = 0;  // my position in the order along the walk
-  int count = 1;
-};
-
 double circ(double a, double L) {
   a = std::fmod(a, L);
   return a < 0 ? a + L : a;
-}
-
-Spread spread(const ClosedWalk& w, const PatrolGraph& g, const std::vector<std::string>& members,
-              const std::vector<Vec2>& where, int me) {
-  Spread s;
-  s.count = static_cast<int>(members.size());
-  if (w.length <= 0 || members.empty()) return s;
-  std::vector<std::pair<double, int>> arc;  // (arc, member)
-  for (size_t m = 0; m < members.size(); ++m) {
-    size_t best = 0;
-    double bd = std::numeric_limits<double>::infinity();
-    for (size_t i = 0; i < w.vertices.size(); ++i) {
-      const double d = (g.vertex(w.vertices[i]).position - where[m]).norm();
-      if (d < bd - 1e-9) {
-        bd = d;
-        best = i;
-      }
-    }
-    arc.push_back({w.arc[best], static_cast<int>(m)});
-  }
-  std::sort(arc.begin(), arc.end());
-  const double L = w.length, gap = L / static_cast<double>(members.size());
-  double best_cost = std::numeric_limits<double>::infinity();
-  for (size_t c = 0; c < arc.size(); ++c) {
-    const double base = circ(arc[c].first - static_cast<double>(c) * gap, L);
-    double cost = 0;
-    for (size_t k = 0; k < arc.size(); ++k) {
-      const double target = circ(base + static_cast<double>(k) * gap, L);
-      const double d = std::abs(target - arc[k].first);
-      cost += std::min(d, L - d);
-    }
-    if (cost < best_cost - 1e-9) {
-      best_cost = cost;
-      s.base = base;
-    }
-  }
-  for (size_t k = 0; k < arc.size(); ++k) {
-    if (arc[k].second == me) s.rank = static_cast<int>(k);
-  }
-  return s;
 }
 
 // Cyclic: the even formation along the walk that moves the team least. A member may stand where
@@ -142,13 +113,16 @@ size_t index_at(const ClosedWalk& w, double a) {
 
 class Cyclic : public PatrolStrategy {
  public:
-  Cyclic(std::shared_ptr<const PatrolSetup> s, const StrategyParams& p) : s_(std::move(s)), p_(p) {}
+  // Along the whole graph's walk, or along `walk` (a region's, for the partition strategy).
+  Cyclic(std::shared_ptr<const PatrolSetup> s, const StrategyParams& p) : s_(std::move(s)), p_(p), w_(s_->tour) {}
+  Cyclic(std::shared_ptr<const PatrolSetup> s, const StrategyParams& p, ClosedWalk walk)
+      : s_(std::move(s)), p_(p), w_(std::move(walk)) {}
   const char* name() const override { return "cyclic"; }
   void set_team(const std::vector<std::string>& members, const std::vector<Vec2>& where, int me) override {
-    cursor_ = index_at(s_->tour, formation(s_->tour, s_->graph, members, where, me));
+    cursor_ = index_at(w_, formation(w_, s_->graph, members, where, me));
   }
   int next(int at, Vec2, const PatrolKnowledge&) override {
-    const auto& v = s_->tour.vertices;
+    const auto& v = w_.vertices;
     if (at >= 0 && at == v[cursor_]) cursor_ = (cursor_ + 1) % v.size();
     return v[cursor_];
   }
@@ -156,17 +130,17 @@ class Cyclic : public PatrolStrategy {
   // The arc of the walk vertex I head for (the walk's end for index 0, so that the last edge
   // counts from the arc before it) less what is left to drive.
   double phase(double remaining) const override {
-    const ClosedWalk& w = s_->tour;
+    const ClosedWalk& w = w_;
     if (w.length <= 0) return 0;
     const double to = cursor_ == 0 ? w.length : w.arc[cursor_];
     return circ(to - std::max(0.0, remaining), w.length);
   }
-  double pace(double mine, const std::vector<double>& mates) const override {
-    const double L = s_->tour.length;
+  double pace(double mine, const std::vector<std::pair<std::string, double>>& mates) const override {
+    const double L = w_.length;
     if (L <= 0 || mine < 0) return 1;
     double ahead = L, behind = L;
     int n = 0;
-    for (double m : mates) {
+    for (const auto& [who, m] : mates) {
       if (m < 0) continue;
       ++n;
       const double d = circ(m - mine, L);
@@ -181,7 +155,7 @@ class Cyclic : public PatrolStrategy {
   // gap to the robot ahead is shorter than the gap to the one behind by more than a tenth of
   // the even spacing: half the difference, at cruise speed.
   double hold(const PatrolKnowledge& k) const override {
-    const ClosedWalk& w = s_->tour;
+    const ClosedWalk& w = w_;
     if (k.others.empty() || w.length <= 0) return 0;
     const size_t m = w.vertices.size();
     const double L = w.length;
@@ -203,47 +177,54 @@ class Cyclic : public PatrolStrategy {
  private:
   std::shared_ptr<const PatrolSetup> s_;
   StrategyParams p_;
+  ClosedWalk w_;
   size_t cursor_ = 0;
 };
 
 class Partition : public PatrolStrategy {
  public:
-  explicit Partition(std::shared_ptr<const PatrolSetup> s) : s_(std::move(s)) {}
+  Partition(std::shared_ptr<const PatrolSetup> s, const StrategyParams& p) : s_(std::move(s)), p_(p) {}
   const char* name() const override { return "partition"; }
+  // My region: the team's plan for its size (plan_regions), members given to regions by
+  // least total distance from where they are (every member computes the same); the members of
+  // my region spread along its walk as the cyclic strategy spreads a team.
   void set_team(const std::vector<std::string>& members, const std::vector<Vec2>& where, int me) override {
-    const ClosedWalk& w = s_->tour;
-    const Spread sp = spread(w, s_->graph, members, where, me);
-    const double gap = w.length / sp.count;
-    const double from = sp.base + sp.rank * gap;
-    std::set<int> region;
-    for (size_t i = 0; i < w.vertices.size(); ++i) {
-      const double rel = circ(w.arc[i] - from, w.length);
-      if (rel < gap - 1e-9) region.insert(w.vertices[i]);
+    const auto plan = s_->partition(static_cast<int>(members.size()), p_.min_region_walk, p_.region_share_cost);
+    const std::vector<int> regions = assign_regions(s_->graph, s_->distances, *plan, where);
+    const int r = me >= 0 && static_cast<size_t>(me) < regions.size() ? regions[static_cast<size_t>(me)] : -1;
+    std::vector<std::string> mine;
+    std::vector<Vec2> at;
+    int my_index = 0;
+    region_mates_.clear();
+    for (size_t i = 0; i < members.size(); ++i) {
+      if (regions[i] != r) continue;
+      if (static_cast<int>(i) == me) my_index = static_cast<int>(mine.size());
+      else region_mates_.insert(members[i]);
+      mine.push_back(members[i]);
+      at.push_back(where[i]);
     }
-    if (region.empty()) region.insert(w.vertices[index_at(w, from)]);
-    own_ = closed_walk(s_->graph, s_->distances, std::vector<int>(region.begin(), region.end()));
-    // Start at the vertex of the region nearest to where I am.
-    const Vec2 p = where[me];
-    cursor_ = 0;
-    double bd = std::numeric_limits<double>::infinity();
-    for (size_t i = 0; i < own_.vertices.size(); ++i) {
-      const double d = (s_->graph.vertex(own_.vertices[i]).position - p).norm();
-      if (d < bd - 1e-9) {
-        bd = d;
-        cursor_ = i;
-      }
-    }
+    // No region (more members than places): the whole graph's walk.
+    walk_ = std::make_unique<Cyclic>(s_, p_, r >= 0 ? plan->walks[static_cast<size_t>(r)] : s_->tour);
+    walk_->set_team(mine, at, my_index);
   }
-  int next(int at, Vec2, const PatrolKnowledge&) override {
-    const auto& v = own_.vertices;
-    if (at >= 0 && at == v[cursor_] && v.size() > 1) cursor_ = (cursor_ + 1) % v.size();
-    return v[cursor_];
+  int next(int at, Vec2 p, const PatrolKnowledge& k) override { return walk_ ? walk_->next(at, p, k) : -1; }
+  int64_t walk_index() const override { return walk_ ? walk_->walk_index() : -1; }
+  double phase(double remaining) const override { return walk_ ? walk_->phase(remaining) : -1; }
+  // Spacing with the mates of my region only (the others are on other walks).
+  double pace(double mine, const std::vector<std::pair<std::string, double>>& mates) const override {
+    if (!walk_) return 1;
+    std::vector<std::pair<std::string, double>> same;
+    for (const auto& m : mates) {
+      if (region_mates_.count(m.first)) same.push_back(m);
+    }
+    return walk_->pace(mine, same);
   }
 
  private:
   std::shared_ptr<const PatrolSetup> s_;
-  ClosedWalk own_;
-  size_t cursor_ = 0;
+  StrategyParams p_;
+  std::unique_ptr<Cyclic> walk_;
+  std::set<std::string> region_mates_;
 };
 
 class Greedy : public PatrolStrategy {
@@ -308,7 +289,15 @@ Result<std::unique_ptr<PatrolStrategy>> make_strategy(const std::string& name, s
     if (!(params.min_pace >= 0 && params.min_pace <= 1)) return bad_input("", 0, "min_pace", "must be in [0, 1]");
     return std::unique_ptr<PatrolStrategy>(std::make_unique<Cyclic>(setup, params));
   }
-  if (name == "partition") return std::unique_ptr<PatrolStrategy>(std::make_unique<Partition>(setup));
+  if (name == "partition") {
+    if (!(params.min_region_walk >= 0) || !std::isfinite(params.min_region_walk)) {
+      return bad_input("", 0, "min_region_walk", "must be a finite number >= 0");
+    }
+    if (!(params.region_share_cost >= 0) || !std::isfinite(params.region_share_cost)) {
+      return bad_input("", 0, "region_share_cost", "must be a finite number >= 0");
+    }
+    return std::unique_ptr<PatrolStrategy>(std::make_unique<Partition>(setup, params));
+  }
   if (name == "greedy") {
     if (!(params.theta >= 0) || !std::isfinite(params.theta)) return bad_input("", 0, "theta", "must be a finite number >= 0");
     return std::unique_ptr<PatrolStrategy>(std::make_unique<Greedy>(setup, params.theta));

@@ -3,8 +3,10 @@
 // were last visited and where each robot is heading, passed between robots by the transport.
 //   cyclic     one shortest closed walk through every vertex; the team spread evenly along it,
 //              all going the same way round
-//   partition  the walk cut into as many equal stretches as there are robots; each robot patrols
-//              the closed walk of its own stretch's vertices
+//   partition  the graph cut into connected regions, balanced so that the longest region walk
+//              per robot is least (partition.h): as many regions as robots where the graph has
+//              room (each robot alone on its region's walk, meeting no mate), else some regions
+//              patrolled by two or more robots spread along their walk as in cyclic
 //   greedy     (DTA-Greedy) go next to the vertex of highest utility: its estimated idleness
 //              less theta times the planned travel time to it, leaving out the vertices other
 //              robots are heading for
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "planning/patrol/partition.h"
 #include "planning/patrol/patrol_graph.h"
 #include "planning/patrol/tour.h"
 
@@ -34,6 +37,13 @@ struct PatrolSetup {
 
   // Builds the tour; `travel` empty means the graph's own costs.
   static std::shared_ptr<const PatrolSetup> make(PatrolGraph g, CostMatrix travel, double speed);
+  // The regions of a team of `count` (plan_regions, partition.h) with walks at least
+  // `min_walk` long where the graph allows, computed once per count and shared by every member
+  // (thread-safe).
+  std::shared_ptr<const GraphPartition> partition(int count, double min_walk = 0, double shared_cost = 0.1) const;
+
+  struct PartitionCache;
+  std::shared_ptr<PartitionCache> partitions;
 };
 
 // What one robot knows of the team's patrol.
@@ -75,7 +85,8 @@ class PatrolStrategy {
   // mate ahead than the mate behind slows by the difference: a robot held up somewhere makes
   // the one behind it slow down and the one ahead of it wait, instead of the gap behind it
   // growing until a hold at a vertex catches it. 1 when spacing is even or alone.
-  virtual double pace(double /*mine*/, const std::vector<double>& /*mates*/) const { return 1; }
+  // `mates`: each mate's name and phase.
+  virtual double pace(double /*mine*/, const std::vector<std::pair<std::string, double>>& /*mates*/) const { return 1; }
 };
 
 // The pace law (cyclic): `ahead` and `behind` the arc gaps to the nearest mates either side,
@@ -88,6 +99,8 @@ struct StrategyParams {
   double pace_gain = 2.0;  // cyclic: how hard the pace reacts to uneven spacing (0: never slows)
   double min_pace = 0.3;   // cyclic: the slowest share of cruise speed the pace asks for
   double pace_band = 0.1;  // cyclic: uneven spacing (behind - ahead) tolerated, as a share of the even spacing
+  double min_region_walk = 0;  // partition: regions' walks at least this long (m) where the graph allows
+  double region_share_cost = 0.1;  // partition: a shared region's walk counts this much more per extra robot
 };
 
 const std::vector<std::string>& strategy_names();

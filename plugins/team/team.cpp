@@ -111,6 +111,10 @@ class Team : public Plugin {
         {"pace_band", ParamType::kNumber, 0.1, 0.0, 1.0, "cyclic: uneven spacing the pace tolerates (behind less ahead, share of the even spacing)"},
         {"pass_offset", ParamType::kNumber, 0.45, 0.0, 2.0, "keep this far right of the path when a mate comes the other way (m; 0 = off)"},
         {"pass_distance", ParamType::kNumber, 5.0, 0.5, 50.0, "a mate coming the other way this close starts the passing (m)"},
+        {"min_region_walk", ParamType::kNumber, 3.0, 0.0, 1000.0,
+         "partition: each robot's region walk at least this long where the graph allows (m): a robot shuttling between two vertices closer than about three visit radii never leaves one far enough for its next visit to count"},
+        {"region_share_cost", ParamType::kNumber, 0.1, 0.0, 10.0,
+         "partition: what robots sharing a region's walk lose to meeting each other, as a share of the walk per extra robot (large: a region each where the graph has room)"},
     };
     p.insert(p.end(), own.begin(), own.end());
     return p;
@@ -136,6 +140,8 @@ class Team : public Plugin {
     params_.pace_gain = p.number("pace_gain");
     params_.min_pace = p.number("min_pace");
     params_.pace_band = p.number("pace_band");
+    params_.min_region_walk = p.number("min_region_walk");
+    params_.region_share_cost = p.number("region_share_cost");
     spacing_pace_ = p.boolean("spacing_pace");
     leaf_wait_distance_ = p.number("leaf_wait_distance");
     leaf_wait_time_ = from_seconds(p.number("leaf_wait_time"));
@@ -666,7 +672,7 @@ class Team : public Plugin {
   double team_pace() const {
     const double mine = my_phase();
     if (mine < 0) return 1.0;
-    std::vector<double> phases;
+    std::vector<std::pair<std::string, double>> phases;
     for (const std::string& id : team_) {
       if (id == ctx_.model_id) continue;
       auto it = mates_.find(id);
@@ -674,7 +680,7 @@ class Team : public Plugin {
       // A mate stuck for a while (in a jam, recovering) is left out: waiting for it would
       // only pile the team up behind it.
       if (now_ - it->second.phase_moved > from_seconds(10.0)) continue;
-      phases.push_back(it->second.phase);
+      phases.push_back({id, it->second.phase});
     }
     return strategy_->pace(mine, phases);
   }
