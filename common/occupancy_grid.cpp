@@ -94,4 +94,16 @@ size_t OccupancyGrid::count(Cell c) const {
   return static_cast<size_t>(std::count(cells_.begin(), cells_.end(), static_cast<uint8_t>(c)));
 }
 
+uint64_t OccupancyGrid::fingerprint() const {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* data, size_t n) {
+    const auto* b = static_cast<const uint8_t*>(data);
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  const double geometry[5] = {static_cast<double>(width_), static_cast<double>(height_), resolution_, origin_.x, origin_.y};
+  mix(geometry, sizeof geometry);
+  mix(cells_.data(), cells_.size());
+  return h;
+}
+
 }  // namespace vigil

@@ -45,6 +45,9 @@ class OccupancyGrid {
 
   size_t count(Cell c) const;
   const std::vector<uint8_t>& cells() const { return cells_; }
+  // A hash of the size, resolution, origin and every cell (FNV-1a): what caches of data built
+  // from a map key on, since a map's address can be reused by another map after it is freed.
+  uint64_t fingerprint() const;
 
  private:
   size_t index(int cx, int cy) const { return static_cast<size_t>(cy) * width_ + cx; }

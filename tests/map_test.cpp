@@ -183,6 +183,20 @@ TEST(Grid, CellsAndCentresFollowTheOrigin) {
   EXPECT_EQ(grid.count(Cell::kUnknown), 1u);
 }
 
+TEST(Grid, FingerprintTellsMapsApartByContentNotAddress) {
+  // Caches of roadmaps and likelihood fields key on it: a map freed and another built at the
+  // same address must not get the first one's roadmap (vigil bench patrol over two maps did).
+  OccupancyGrid a(20, 10, 0.05, Pose2{1.0, 2.0, 0});
+  OccupancyGrid same(20, 10, 0.05, Pose2{1.0, 2.0, 0});
+  EXPECT_EQ(a.fingerprint(), same.fingerprint());
+  OccupancyGrid wall = a;
+  wall.set(3, 4, Cell::kOccupied);
+  EXPECT_NE(a.fingerprint(), wall.fingerprint());
+  EXPECT_NE(a.fingerprint(), OccupancyGrid(20, 10, 0.05, Pose2{1.0, 2.5, 0}).fingerprint());
+  EXPECT_NE(a.fingerprint(), OccupancyGrid(10, 20, 0.05, Pose2{1.0, 2.0, 0}).fingerprint());
+  EXPECT_NE(a.fingerprint(), OccupancyGrid(20, 10, 0.1, Pose2{1.0, 2.0, 0}).fingerprint());
+}
+
 TEST(Grid, FreeDiscTouchesOnlyCellsWithinTheRadius) {
   OccupancyGrid grid(20, 20, 0.1, Pose2{});
   grid.set(10, 10, Cell::kOccupied);  // covers [1.0, 1.1) x [1.0, 1.1)

@@ -24,9 +24,10 @@ class TopdownRenderer {
   // Draws the world as it is now (BGR, 8-bit).
   cv::Mat draw(const World& world);
   cv::Size size() const { return background_.size(); }
+  // The pixel of a map-frame point in the drawings.
+  cv::Point to_px(Vec2 p) const;
 
  private:
-  cv::Point to_px(Vec2 p) const;
   cv::Mat background_;
   double scale_ = 20;  // pixels per metre
   Vec2 origin_;

@@ -36,11 +36,13 @@ inline std::shared_ptr<const planning::TwoLevelPlanner> shared_planner(const Occ
                                                                 const std::filesystem::path& cache_dir,
                                                                 Error* error) {
   static std::mutex mu;
-  static std::map<std::tuple<const OccupancyGrid*, long long, uint64_t, long long>,
+  static std::map<std::tuple<uint64_t, long long, uint64_t, long long>,
                   std::shared_ptr<const planning::TwoLevelPlanner>>
       cache;
+  // Keyed by the map's content: a freed map's address can come back for another map.
+  const uint64_t which = map->fingerprint();
   std::lock_guard<std::mutex> lock(mu);
-  const auto key = std::make_tuple(map, std::llround(params.robot_radius * 1e6), params.roadmap.seed,
+  const auto key = std::make_tuple(which, std::llround(params.robot_radius * 1e6), params.roadmap.seed,
                                    std::llround(params.roadmap.density * 1e6));
   auto& slot = cache[key];
   if (!slot) {
@@ -53,13 +55,22 @@ inline std::shared_ptr<const planning::TwoLevelPlanner> shared_planner(const Occ
                     static_cast<unsigned long long>(params.roadmap.seed));
       file = cache_dir / name;
     }
-    auto created = planning::TwoLevelPlanner::create(*map, params, file);
+    // The planner refers to its grid, so the cache keeps its own copy of the map: the world's
+    // map goes when its run ends, and a later run on the same map reuses the planner.
+    struct Held {
+      OccupancyGrid map;
+      std::unique_ptr<planning::TwoLevelPlanner> planner;
+    };
+    auto held = std::make_shared<Held>();
+    held->map = *map;
+    auto created = planning::TwoLevelPlanner::create(held->map, params, file);
     if (!created) {
       *error = created.error();
       cache.erase(key);
       return nullptr;
     }
-    slot = std::move(*created);
+    held->planner = std::move(*created);
+    slot = std::shared_ptr<const planning::TwoLevelPlanner>(held, held->planner.get());
   }
   return slot;
 }
@@ -69,9 +80,10 @@ inline std::shared_ptr<const planning::TwoLevelPlanner> shared_planner(const Occ
 inline Result<std::shared_ptr<const planning::MclMap>> shared_mcl_map(const OccupancyGrid* map,
                                                                const planning::LikelihoodFieldParams& field) {
   static std::mutex mu;
-  static std::map<std::pair<const OccupancyGrid*, long long>, std::shared_ptr<const planning::MclMap>> cache;
+  static std::map<std::pair<uint64_t, long long>, std::shared_ptr<const planning::MclMap>> cache;
+  const uint64_t which = map->fingerprint();
   std::lock_guard<std::mutex> lock(mu);
-  auto& slot = cache[{map, std::llround(field.max_range * 1e6)}];
+  auto& slot = cache[{which, std::llround(field.max_range * 1e6)}];
   if (!slot) {
     auto built = planning::MclMap::build(*map, field);
     if (!built) return built.error();

@@ -41,9 +41,12 @@ Result<std::shared_ptr<const PatrolSetup>> shared_setup(const fs::path& file, co
                                                         const planning::TwoLevelPlanner& planner, double speed,
                                                         const std::string& scenario, int line) {
   static std::mutex mu;
-  static std::map<std::tuple<std::string, const OccupancyGrid*, const void*, long long>, std::shared_ptr<const PatrolSetup>> cache;
+  // Keyed by the map's content, not its address (a freed map's address can come back for
+  // another), and by the planner, which is itself shared per map (navigator.h).
+  static std::map<std::tuple<std::string, uint64_t, const void*, long long>, std::shared_ptr<const PatrolSetup>> cache;
+  const uint64_t which = map->fingerprint();
   std::lock_guard<std::mutex> lock(mu);
-  auto key = std::make_tuple(fs::weakly_canonical(file).string(), map, static_cast<const void*>(&planner),
+  auto key = std::make_tuple(fs::weakly_canonical(file).string(), which, static_cast<const void*>(&planner),
                              std::llround(speed * 1e6));
   if (auto it = cache.find(key); it != cache.end()) return it->second;
   auto g = PatrolGraph::read(file);

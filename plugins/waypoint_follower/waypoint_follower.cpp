@@ -16,14 +16,25 @@
 namespace vigil::plugins {
 namespace {
 
-// One path planner per (map, clearance), shared by every robot on that map.
+// One path planner per (map, clearance), shared by every robot on that map. The planner refers
+// to its grid, so the cache keeps its own copy of the map (the world's goes with its run).
 const planning::GridPathPlanner& shared_planner(const OccupancyGrid* map, double clearance) {
+  struct Held {
+    OccupancyGrid map;
+    std::unique_ptr<planning::GridPathPlanner> planner;
+  };
   static std::mutex mu;
-  static std::map<std::pair<const OccupancyGrid*, double>, std::unique_ptr<planning::GridPathPlanner>> cache;
+  // Keyed by the map's content: a freed map's address can come back for another map.
+  static std::map<std::pair<uint64_t, double>, std::unique_ptr<Held>> cache;
+  const uint64_t which = map->fingerprint();
   std::lock_guard<std::mutex> lock(mu);
-  auto& slot = cache[{map, clearance}];
-  if (!slot) slot = std::make_unique<planning::GridPathPlanner>(*map, clearance);
-  return *slot;
+  auto& slot = cache[{which, clearance}];
+  if (!slot) {
+    slot = std::make_unique<Held>();
+    slot->map = *map;
+    slot->planner = std::make_unique<planning::GridPathPlanner>(slot->map, clearance);
+  }
+  return *slot->planner;
 }
 
 class WaypointFollower : public Plugin {

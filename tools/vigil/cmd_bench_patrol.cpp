@@ -10,6 +10,8 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "planning/patrol/idleness.h"
 #include "planning/patrol/patrol_graph.h"
@@ -19,6 +21,7 @@
 #include "tools/vigil/plugin_search.h"
 #include "world/map.h"
 #include "world/team_bus.h"
+#include "world/topdown.h"
 #include "world/world.h"
 
 namespace vigil::cli {
@@ -33,7 +36,7 @@ struct PatrolBenchOptions {
   std::vector<std::string> strategies{"cyclic", "partition", "greedy"};
   double seconds = 1800, speed = 1.0, physics_hz = 10, visit_radius = 0.5;
   uint64_t seed = 1;
-  std::string json, trace;
+  std::string json, trace, pictures;
   std::vector<std::string> set;  // extra team parameters, name=value
 };
 
@@ -93,6 +96,9 @@ void add_bench_patrol_command(CLI::App* bench) {
   cmd->add_option("--trace", o->trace,
                   "write every visit, the robots' true positions (each second) and their events (failed goals, team changes) of every run as CSV to this file")
       ->capture_default_str();
+  cmd->add_option("--pictures", o->pictures,
+                  "write a top-down picture of every run to this folder: the graph, each vertex in the colour of the robot "
+                  "that visited it most (so a partition's regions show), the robots where the run ended");
   cmd->add_option("--set", o->set, "extra team controller parameters NAME=VALUE (numbers or true/false), e.g. spacing_hold=false")
       ->delimiter(',');
   cmd->callback([o] {
@@ -220,6 +226,43 @@ void add_bench_patrol_command(CLI::App* bench) {
               trace << mc.name << ',' << strategy << ',' << n << ",visit," << v.t << ',' << v.robot << ',' << v.vertex
                     << ",0,0\n";
             }
+          }
+          if (!o->pictures.empty()) {
+            fs::create_directories(o->pictures);
+            TopdownRenderer top(**world);
+            cv::Mat img = top.draw(**world);
+            for (size_t a = 0; a < graph->size(); ++a) {
+              for (const GraphEdge& e : graph->vertex(a).edges) {
+                if (static_cast<size_t>(e.to) > a) {
+                  cv::line(img, top.to_px(graph->vertex(a).position), top.to_px(graph->vertex(static_cast<size_t>(e.to)).position),
+                           cv::Scalar(160, 160, 160), 1, cv::LINE_AA);
+                }
+              }
+            }
+            // Each vertex in the colour of the robot that visited it most.
+            std::map<int, std::map<std::string, int>> by;
+            for (const Visit& v : visits.visits()) ++by[v.vertex][v.robot];
+            for (size_t a = 0; a < graph->size(); ++a) {
+              cv::Scalar colour(0, 0, 0);
+              int most = 0;
+              for (const auto& [robot, count] : by[static_cast<int>(a)]) {
+                if (count > most) {
+                  most = count;
+                  const int k = std::atoi(robot.c_str() + std::min<size_t>(robot.size(), 5));
+                  const double hue = std::fmod(k * 0.381966, 1.0) * 180.0;  // golden-ratio hues
+                  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(hue, 220, 210)), bgr;
+                  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+                  const cv::Vec3b c = bgr.at<cv::Vec3b>(0, 0);
+                  colour = cv::Scalar(c[0], c[1], c[2]);
+                }
+              }
+              cv::circle(img, top.to_px(graph->vertex(a).position), 6, colour, cv::FILLED, cv::LINE_AA);
+            }
+            char caption[160];
+            std::snprintf(caption, sizeof caption, "%s, %s, %d robots: vertices by their most frequent visitor", mc.name.c_str(),
+                          strategy.c_str(), n);
+            cv::putText(img, caption, {10, img.rows - 12}, cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+            cv::imwrite((fs::path(o->pictures) / (mc.name + "_" + strategy + "_" + std::to_string(n) + ".png")).string(), img);
           }
           const double ref = tour.length / (n * o->speed);
           std::printf("%-10s %6d %9.1f %9.1f %9.1f %7.1f %9.2f %9.2f %9d %7d %7d %8.1f%s\n", strategy.c_str(), n, ref,
