@@ -189,8 +189,11 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   const pid_t cam = spawn_vigil({"camera-node", scenario, "--camera", "cam_corridor", "--sensor", "truth", "--session", s,
                                  "--speed", std::to_string(speed), "--epoch", ep, "--duration", std::to_string(duration), "--linger", "2"},
                                 dir / "cam.log");
+  // An operator's view of the allocation: the robots' task assignments on their topic.
+  const pid_t watch = spawn_vigil({"events", "--assignments", "--session", s}, dir / "assignments.log");
   const pid_t r1 = spawn_vigil(robot_args("robot1", "r1"), dir / "r1.log");
   pid_t r2 = spawn_vigil(robot_args("robot2", "r2"), dir / "r2.log");
+  ASSERT_GT(watch, 0);
   ASSERT_GT(server, 0);
   ASSERT_GT(cam, 0);
   ASSERT_GT(r1, 0);
@@ -210,6 +213,14 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   EXPECT_EQ(wait_exit(cam), 0) << slurp(dir / "cam.log");
   kill(server, SIGTERM);
   EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "server.log");
+  kill(watch, SIGTERM);
+  EXPECT_EQ(wait_exit(watch), 0) << slurp(dir / "assignments.log");
+  std::vector<nlohmann::json> announced;
+  {
+    std::istringstream lines(slurp(dir / "assignments.log"));
+    for (std::string l; std::getline(lines, l);)
+      if (!l.empty() && l[0] == '{') announced.push_back(nlohmann::json::parse(l));
+  }
 
   // robot1 saw robot2 leave (member timeout); the restarted robot2 caught up and joined.
   std::vector<std::string> teams;
@@ -268,6 +279,13 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   // The bag was taken while the left bag's robot guarded: the other robot (so the restarted one
   // took part) has it.
   EXPECT_NE(served_by[incidents[0].id], served_by[incidents[1].id]);
+  // The observer on vigil_task_assignments saw each serving robot keep its incident.
+  for (const auto& [id, robot] : served_by) {
+    bool seen = false;
+    for (const auto& a : announced)
+      seen = seen || (a["incident"].get<uint64_t>() == id && a["state"] == "keep" && a["robot"] == robot);
+    EXPECT_TRUE(seen) << "incident " << id << " kept by " << robot << " on the topic:\n" << slurp(dir / "assignments.log");
+  }
   fs::remove_all(dir);
 }
 

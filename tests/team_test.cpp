@@ -297,16 +297,99 @@ TEST(Team, MalformedDdsTeamMessagesAreRefusedNamingTheField) {
   EXPECT_EQ(dds::from_message(out.msg, &n).error().key, "from");
 }
 
+// Allocation messages as TaskAssignment samples: each of the controller's kinds comes back as
+// it went; bad samples are refused naming the field.
+TEST(Team, TaskAssignmentsRoundTripAndMalformedOnesAreRefused) {
+  auto make = [](const std::string& kind) {
+    TeamMessage m;
+    m.kind = kind;
+    m.from = "robot2";
+    m.to = kind == "token_keep" || kind == "task_done" || kind == "task_reopen" ? "" : "robot1";
+    m.sent = from_seconds(21.5);
+    m.task = 42;
+    if (kind.starts_with("token")) {
+      m.vertex = 3;  // priority
+      m.position = {21.0, 3.3};
+      m.seq = 2;  // hop
+      m.text = "bag_taken|robot3,robot2";
+    }
+    if (kind == "task_reopen") m.text = "robot3";
+    return m;
+  };
+  const std::map<std::string, std::string> states = {
+      {"token", "token"}, {"token_ack", "ack"}, {"token_keep", "keep"}, {"task_done", "done"}, {"task_reopen", "reopen"}};
+  for (const auto& [kind, state] : states) {
+    const TeamMessage m = make(kind);
+    ASSERT_TRUE(dds::is_assignment(m)) << kind;
+    dds::TaskAssignmentOut out;
+    dds::to_assignment(m, 9, &out);
+    EXPECT_EQ(std::string(out.msg.state), state);
+    EXPECT_EQ(std::string(out.msg.robot), kind == "task_reopen" ? "robot3" : "robot2");
+    EXPECT_EQ(out.msg.incident, 42u);
+    if (kind.starts_with("token")) {
+      EXPECT_EQ(std::string(out.msg.task_kind), "bag_taken");
+      ASSERT_EQ(out.msg.visited._length, 2u);
+      EXPECT_EQ(std::string(out.msg.visited._buffer[1]), "robot2");
+    }
+    uint64_t n = 0;
+    auto back = dds::from_assignment(out.msg, &n);
+    ASSERT_TRUE(back.ok()) << kind << ": " << back.error().str();
+    EXPECT_EQ(n, 9u);
+    EXPECT_EQ(back->kind, m.kind);
+    EXPECT_EQ(back->from, m.from);
+    EXPECT_EQ(back->to, m.to);
+    EXPECT_EQ(back->sent, m.sent);
+    EXPECT_EQ(back->task, m.task);
+    EXPECT_EQ(back->vertex, m.vertex);
+    EXPECT_EQ(back->seq, m.seq);
+    EXPECT_EQ(back->text, m.text) << kind;
+    EXPECT_DOUBLE_EQ(back->position.x, m.position.x);
+  }
+  TeamMessage visit;
+  visit.kind = "visit";
+  EXPECT_FALSE(dds::is_assignment(visit)) << "patrol visits stay on vigil_team";
+
+  dds::TaskAssignmentOut out;
+  dds::to_assignment(make("token"), 1, &out);
+  uint64_t n = 0;
+  out.msg.state = const_cast<char*>("bid");
+  EXPECT_EQ(dds::from_assignment(out.msg, &n).error().key, "state");
+  out.msg.state = const_cast<char*>("token");
+  out.msg.task_kind = const_cast<char*>("");
+  EXPECT_EQ(dds::from_assignment(out.msg, &n).error().key, "task_kind");
+  out.msg.task_kind = const_cast<char*>("bag_taken");
+  out.msg.target.y = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(dds::from_assignment(out.msg, &n).error().key, "target");
+  out.msg.target.y = 3.3;
+  out.msg.from = const_cast<char*>("");
+  EXPECT_EQ(dds::from_assignment(out.msg, &n).error().key, "from");
+  dds::TaskAssignmentOut reopen;
+  dds::to_assignment(make("task_reopen"), 1, &reopen);
+  reopen.msg.robot = const_cast<char*>("");
+  EXPECT_EQ(dds::from_assignment(reopen.msg, &n).error().key, "robot");
+}
+
 // The whole loop in `vigil run`: cameras (truth sensor) -> rules -> DDS -> video server ->
-// DDS -> both robots' inboxes -> token passing over DDS -> one robot drives there and guards.
+// DDS -> both robots' inboxes -> token passing over DDS (topic vigil_task_assignments) -> one
+// robot drives there and guards. The second run passes the team's messages on the in-process
+// bus: the same bytes.
 TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
   std::vector<std::string> hashes;
   for (int run = 0; run < 2; ++run) {
     const fs::path dir = test::fresh_temp_dir("team", "loop" + std::to_string(run));
     const std::string cmd = std::string(VIGIL_BINARY) + " run " +
                             (test::source_dir() / "scenarios" / "dis_team_bag_taken.yaml").string() +
-                            " --sensor truth --no-video --quiet --out " + dir.string() + " > /dev/null";
+                            " --sensor truth --no-video --quiet --team-transport " + (run == 0 ? "dds" : "local") +
+                            " --out " + dir.string() + " > " + (dir / "stdout.txt").string();
     ASSERT_EQ(std::system(cmd.c_str()), 0);
+    if (run == 0) {
+      // "team messages over DDS: N written (M on vigil_task_assignments), ..."
+      const std::string out = test::slurp(dir / "stdout.txt");
+      const size_t at = out.find(" on vigil_task_assignments)");
+      ASSERT_NE(at, std::string::npos) << out;
+      const size_t open = out.rfind('(', at);
+      EXPECT_GT(std::stoi(out.substr(open + 1, at - open - 1)), 0) << "tokens go on the task-assignment topic";
+    }
     std::vector<nlohmann::json> incidents, reports;
     for (const std::string& l : file_lines(dir / "events.jsonl")) incidents.push_back(nlohmann::json::parse(l));
     for (const std::string& l : file_lines(dir / "robots.jsonl")) reports.push_back(nlohmann::json::parse(l));
@@ -383,7 +466,7 @@ TEST(Team, EachIncidentGoesToOneRobotThatArrivesAndGuards) {
     }
     fs::remove_all(dir);
   }
-  EXPECT_EQ(hashes[0], hashes[1]) << "the same run, byte for byte";
+  EXPECT_EQ(hashes[0], hashes[1]) << "over DDS as on the in-process bus, byte for byte";
 }
 
 // Incident 42 (a left bag at (21, 3.3)) put in both robots' inboxes at 20 s, as the transport does.

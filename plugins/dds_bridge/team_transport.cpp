@@ -7,6 +7,8 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <tuple>
+#include <algorithm>
 
 namespace vigil::dds {
 
@@ -51,6 +53,105 @@ Result<TeamMessage> from_message(const vigil_msgs_TeamMessage& x, uint64_t* numb
   return m;
 }
 
+// ---- Task assignments ----
+
+namespace {
+struct StateName {
+  const char* team_kind;
+  const char* state;
+};
+constexpr StateName kStates[] = {{"token", "token"},
+                                 {"token_ack", "ack"},
+                                 {"token_keep", "keep"},
+                                 {"task_done", "done"},
+                                 {"task_reopen", "reopen"}};
+bool carries_token(const std::string& team_kind) {
+  return team_kind == "token" || team_kind == "token_ack" || team_kind == "token_keep";
+}
+}  // namespace
+
+bool is_assignment(const TeamMessage& m) {
+  for (const auto& s : kStates)
+    if (m.kind == s.team_kind) return true;
+  return false;
+}
+
+void to_assignment(const TeamMessage& m, uint64_t number, TaskAssignmentOut* out) {
+  out->from = m.from;
+  out->to = m.to;
+  out->state.clear();
+  for (const auto& s : kStates)
+    if (m.kind == s.team_kind) out->state = s.state;
+  out->robot = m.kind == "task_reopen" ? m.text : m.from;
+  out->task_kind.clear();
+  out->visited.clear();
+  if (carries_token(m.kind)) {
+    // The controller's token text: "<task kind>|<holder>,<holder>,...".
+    const size_t bar = m.text.find('|');
+    out->task_kind = m.text.substr(0, bar);
+    if (bar != std::string::npos) {
+      const std::string rest = m.text.substr(bar + 1);
+      for (size_t a = 0; a < rest.size();) {
+        const size_t b = rest.find(',', a);
+        out->visited.push_back(rest.substr(a, b == std::string::npos ? std::string::npos : b - a));
+        if (b == std::string::npos) break;
+        a = b + 1;
+      }
+    }
+  }
+  out->visited_ptrs.clear();
+  for (const std::string& v : out->visited) out->visited_ptrs.push_back(const_cast<char*>(v.c_str()));
+  vigil_msgs_TaskAssignment& x = out->msg;
+  x = {};
+  x.from = const_cast<char*>(out->from.c_str());
+  x.incident = m.task;
+  x.number = number;
+  x.to = const_cast<char*>(out->to.c_str());
+  x.state = const_cast<char*>(out->state.c_str());
+  x.robot = const_cast<char*>(out->robot.c_str());
+  x.task_kind = const_cast<char*>(out->task_kind.c_str());
+  x.priority = m.vertex;
+  x.target = {m.position.x, m.position.y, 0.0};
+  x.stamp_ns = m.sent;
+  x.hop = m.seq;
+  x.visited._length = x.visited._maximum = static_cast<uint32_t>(out->visited_ptrs.size());
+  x.visited._buffer = out->visited_ptrs.empty() ? nullptr : out->visited_ptrs.data();
+  x.visited._release = false;
+}
+
+Result<TeamMessage> from_assignment(const vigil_msgs_TaskAssignment& x, uint64_t* number) {
+  if (!x.from || !*x.from) return bad_input("", 0, "from", "empty sender");
+  const std::string state = x.state ? x.state : "";
+  const char* kind = nullptr;
+  for (const auto& s : kStates)
+    if (state == s.state) kind = s.team_kind;
+  if (!kind) return bad_input("", 0, "state", "'" + state + "' is not token, ack, keep, done or reopen");
+  if (!std::isfinite(x.target.x) || !std::isfinite(x.target.y)) return bad_input("", 0, "target", "not finite");
+  TeamMessage m;
+  m.kind = kind;
+  m.from = x.from;
+  m.to = x.to ? x.to : "";
+  m.sent = x.stamp_ns;
+  m.task = x.incident;
+  m.seq = x.hop;
+  m.vertex = x.priority;
+  m.position = {x.target.x, x.target.y};
+  if (carries_token(m.kind)) {
+    if (!x.task_kind || !*x.task_kind) return bad_input("", 0, "task_kind", "a token without its task's kind");
+    m.text = std::string(x.task_kind) + "|";
+    for (uint32_t i = 0; i < x.visited._length; ++i) {
+      const char* v = x.visited._buffer[i];
+      if (!v || !*v) return bad_input("", 0, "visited", "an empty holder name");
+      m.text += (i ? "," : "") + std::string(v);
+    }
+  } else if (m.kind == "task_reopen") {
+    if (!x.robot || !*x.robot) return bad_input("", 0, "robot", "a reopened task without its silent keeper");
+    m.text = x.robot;
+  }
+  *number = x.number;
+  return m;
+}
+
 Result<std::unique_ptr<DdsTeamBus>> DdsTeamBus::create(const std::vector<std::string>& robots, const Options& options) {
   static std::atomic<int> counter{0};
   std::unique_ptr<DdsTeamBus> bus(new DdsTeamBus());
@@ -70,12 +171,19 @@ Result<std::unique_ptr<DdsTeamBus>> DdsTeamBus::create(const std::vector<std::st
     auto rd = Reader::create(*n.participant, Topic::kTeam);
     if (!rd) return rd.error();
     n.reader = std::move(*rd);
+    auto aw = Writer::create(*n.participant, Topic::kTaskAssignments);
+    if (!aw) return aw.error();
+    n.assign_writer = std::move(*aw);
+    auto ar = Reader::create(*n.participant, Topic::kTaskAssignments);
+    if (!ar) return ar.error();
+    n.assign_reader = std::move(*ar);
     bus->nodes_.push_back(std::move(n));
   }
   // Every writer matched with every reader before the first message.
   const int want = static_cast<int>(bus->nodes_.size());
   for (Node& n : bus->nodes_) {
-    if (n.writer->wait_for_readers(want, options.delivery_timeout_s) < want) {
+    if (n.writer->wait_for_readers(want, options.delivery_timeout_s) < want ||
+        n.assign_writer->wait_for_readers(want, options.delivery_timeout_s) < want) {
       return internal_error("DDS team bus: robot " + n.robot + "'s writer did not match every robot's reader within " +
                             std::to_string(options.delivery_timeout_s) + " s");
     }
@@ -90,14 +198,14 @@ Status DdsTeamBus::exchange(World& world) {
   if (sent.empty()) return Status::Ok();
   std::map<std::string, size_t> index;
   for (size_t i = 0; i < nodes_.size(); ++i) index[nodes_[i].robot] = i;
-  // (sender, number) per message, and who must receive it.
+  // (topic, sender, number) per message, and who must receive it. Topic 0: team, 1: assignments.
+  using Key = std::tuple<int, std::string, uint64_t>;
   struct Out {
-    std::string from;
-    uint64_t number;
+    Key key;
     std::vector<size_t> to;
   };
   std::vector<Out> outs;
-  std::vector<std::set<std::pair<std::string, uint64_t>>> expected(nodes_.size());
+  std::vector<std::set<Key>> expected(nodes_.size());
   auto silent = [&](const std::string& robot, SimTime t) {
     for (const auto& [r, from] : options_.silent_from)
       if (r == robot && to_seconds(t) >= from) return true;
@@ -108,37 +216,56 @@ Status DdsTeamBus::exchange(World& world) {
     auto it = index.find(m.from);
     if (it == index.end()) return internal_error("DDS team bus: no node for robot " + m.from);
     Node& n = nodes_[it->second];
-    TeamMessageOut out;
-    to_message(m, ++n.number, &out);
-    if (Status s = n.writer->write_raw(&out.msg); !s) return s;
+    Key key;
+    if (is_assignment(m)) {
+      TaskAssignmentOut out;
+      to_assignment(m, ++n.assign_number, &out);
+      if (Status s = n.assign_writer->write_raw(&out.msg); !s) return s;
+      ++assignments_written_;
+      key = Key{1, m.from, n.assign_number};
+    } else {
+      TeamMessageOut out;
+      to_message(m, ++n.number, &out);
+      if (Status s = n.writer->write_raw(&out.msg); !s) return s;
+      key = Key{0, m.from, n.number};
+    }
     ++written_;
-    Out o{m.from, n.number, {}};
+    Out o{key, {}};
     for (size_t k = 0; k < nodes_.size(); ++k) {
       if (nodes_[k].robot == m.from) continue;
       if (!m.to.empty() && m.to != nodes_[k].robot) continue;
       if (silent(nodes_[k].robot, m.sent)) continue;  // written, but the robot hears nothing
       o.to.push_back(k);
-      expected[k].insert({m.from, n.number});
+      expected[k].insert(key);
     }
     outs.push_back(std::move(o));
   }
   // Read until every recipient holds what it expects.
-  std::vector<std::map<std::pair<std::string, uint64_t>, TeamMessage>> got(nodes_.size());
+  std::vector<std::map<Key, TeamMessage>> got(nodes_.size());
   const auto t0 = std::chrono::steady_clock::now();
   for (;;) {
     bool all = true;
     for (size_t k = 0; k < nodes_.size(); ++k) {
       if (got[k].size() >= expected[k].size()) continue;
       all = false;
-      Status st = nodes_[k].reader->take_each([&](const void* sample, const dds_sample_info_t&) {
-        uint64_t number = 0;
-        auto m = from_message(*static_cast<const vigil_msgs_TeamMessage*>(sample), &number);
+      auto keep = [&](Result<TeamMessage> m, int topic, uint64_t number) {
         if (!m) {
           ++rejected_;
           return;
         }
-        const auto key = std::make_pair(m->from, number);
-        if (expected[k].count(key)) got[k].emplace(key, std::move(*m));
+        Key key{topic, m->from, number};
+        if (expected[k].count(key)) got[k].emplace(std::move(key), std::move(*m));
+      };
+      Status st = nodes_[k].reader->take_each([&](const void* sample, const dds_sample_info_t&) {
+        uint64_t number = 0;
+        auto m = from_message(*static_cast<const vigil_msgs_TeamMessage*>(sample), &number);
+        keep(std::move(m), 0, number);
+      });
+      if (!st) return st;
+      st = nodes_[k].assign_reader->take_each([&](const void* sample, const dds_sample_info_t&) {
+        uint64_t number = 0;
+        auto m = from_assignment(*static_cast<const vigil_msgs_TaskAssignment*>(sample), &number);
+        keep(std::move(m), 1, number);
       });
       if (!st) return st;
     }
@@ -154,7 +281,8 @@ Status DdsTeamBus::exchange(World& world) {
     }
     for (size_t k = 0; k < nodes_.size(); ++k) {
       if (got[k].size() < expected[k].size()) {
-        nodes_[k].reader->wait(0.002);
+        nodes_[k].reader->wait(0.001);
+        nodes_[k].assign_reader->wait(0.001);
         break;
       }
     }
@@ -162,7 +290,7 @@ Status DdsTeamBus::exchange(World& world) {
   // Delivered in the order sent, as the local bus does.
   for (const Out& o : outs) {
     for (size_t k : o.to) {
-      auto it = got[k].find({o.from, o.number});
+      auto it = got[k].find(o.key);
       if (Status s = world.deliver(nodes_[k].robot, std::move(it->second)); !s) return s;
       ++delivered_;
     }
@@ -186,18 +314,27 @@ Result<std::unique_ptr<DdsTeamLink>> DdsTeamLink::create(const std::string& robo
   auto rd = Reader::create(*link->participant_, Topic::kTeam);
   if (!rd) return rd.error();
   link->reader_ = std::move(*rd);
+  auto aw = Writer::create(*link->participant_, Topic::kTaskAssignments);
+  if (!aw) return aw.error();
+  link->assign_writer_ = std::move(*aw);
+  auto ar = Reader::create(*link->participant_, Topic::kTaskAssignments);
+  if (!ar) return ar.error();
+  link->assign_reader_ = std::move(*ar);
   return link;
 }
 
 DdsTeamLink::~DdsTeamLink() = default;
 
 int DdsTeamLink::wait_for_mates(int n, double timeout_s) {
-  // Our own reader matches our writer too.
-  return writer_->wait_for_readers(n + 1, timeout_s) - 1;
+  // Our own readers match our writers too; mates count when they hear both topics.
+  const int team = writer_->wait_for_readers(n + 1, timeout_s) - 1;
+  const int assign = assign_writer_->wait_for_readers(n + 1, timeout_s) - 1;
+  return std::min(team, assign);
 }
 
 Status DdsTeamLink::discard_received() {
-  return reader_->take_each([&](const void*, const dds_sample_info_t&) { ++stale_; });
+  if (Status s = reader_->take_each([&](const void*, const dds_sample_info_t&) { ++stale_; }); !s) return s;
+  return assign_reader_->take_each([&](const void*, const dds_sample_info_t&) { ++stale_; });
 }
 
 Status DdsTeamLink::exchange(World& world) {
@@ -205,15 +342,20 @@ Status DdsTeamLink::exchange(World& world) {
   const bool silent = options_.silent_from >= 0 && now >= options_.silent_from;
   for (const TeamMessage& m : world.drain_sent()) {
     if (m.from != robot_ || silent) continue;
-    TeamMessageOut out;
-    to_message(m, ++number_, &out);
-    if (Status s = writer_->write_raw(&out.msg); !s) return s;
+    if (is_assignment(m)) {
+      TaskAssignmentOut out;
+      to_assignment(m, ++assign_number_, &out);
+      if (Status s = assign_writer_->write_raw(&out.msg); !s) return s;
+      ++assignments_written_;
+    } else {
+      TeamMessageOut out;
+      to_message(m, ++number_, &out);
+      if (Status s = writer_->write_raw(&out.msg); !s) return s;
+    }
     ++written_;
   }
   std::vector<TeamMessage> in;
-  Status st = reader_->take_each([&](const void* sample, const dds_sample_info_t&) {
-    uint64_t number = 0;
-    auto m = from_message(*static_cast<const vigil_msgs_TeamMessage*>(sample), &number);
+  auto keep = [&](Result<TeamMessage> m) {
     if (!m) {
       ++rejected_;
       return;
@@ -224,6 +366,16 @@ Status DdsTeamLink::exchange(World& world) {
       return;
     }
     in.push_back(std::move(*m));
+  };
+  // Each topic in arrival order: one sender's messages about one incident keep their order.
+  Status st = reader_->take_each([&](const void* sample, const dds_sample_info_t&) {
+    uint64_t number = 0;
+    keep(from_message(*static_cast<const vigil_msgs_TeamMessage*>(sample), &number));
+  });
+  if (!st) return st;
+  st = assign_reader_->take_each([&](const void* sample, const dds_sample_info_t&) {
+    uint64_t number = 0;
+    keep(from_assignment(*static_cast<const vigil_msgs_TaskAssignment*>(sample), &number));
   });
   if (!st) return st;
   if (silent) return Status::Ok();

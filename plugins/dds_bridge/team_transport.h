@@ -1,5 +1,6 @@
-// Team messages (world/plugin.h TeamMessage: patrol visits, hellos, task tokens) over DDS,
-// topic "vigil_team". In `vigil run` every robot gets its own participant with a writer and a
+// Team messages (world/plugin.h TeamMessage) over DDS: patrol visits and hellos on topic
+// "vigil_team", task allocation (tokens, acknowledgements, keepers' announcements, tasks done and
+// reopened) on topic "vigil_task_assignments" as TaskAssignment samples. In `vigil run` every robot gets its own participant with a writer and a
 // reader; what a controller sends is written by its robot's writer and read by every other
 // robot's reader (each keeps what is addressed to it or to everyone). Lockstep: after every
 // step the bus waits until each recipient's reader holds everything sent to it that step, then
@@ -27,6 +28,22 @@ void to_message(const TeamMessage& m, uint64_t number, TeamMessageOut* out);
 // Rejects an empty sender or kind and non-finite numbers; the error's key names the field.
 Result<TeamMessage> from_message(const vigil_msgs_TeamMessage& m, uint64_t* number);
 
+// Allocation messages go on the task-assignment topic: the team controller's kinds "token",
+// "token_ack", "token_keep", "task_done" and "task_reopen".
+bool is_assignment(const TeamMessage& m);
+// Owns the strings and the sequence a TaskAssignment points into.
+struct TaskAssignmentOut {
+  vigil_msgs_TaskAssignment msg{};
+  std::string from, to, state, robot, task_kind;
+  std::vector<std::string> visited;
+  std::vector<char*> visited_ptrs;
+};
+// `m` must satisfy is_assignment(); from_assignment(to_assignment(m)) gives `m` back.
+void to_assignment(const TeamMessage& m, uint64_t number, TaskAssignmentOut* out);
+// Rejects an empty sender, an unknown state, a token without a task kind and non-finite
+// positions; the error's key names the field.
+Result<TeamMessage> from_assignment(const vigil_msgs_TaskAssignment& m, uint64_t* number);
+
 class DdsTeamBus {
  public:
   struct Options {
@@ -42,6 +59,7 @@ class DdsTeamBus {
   uint64_t written() const { return written_; }
   uint64_t delivered() const { return delivered_; }
   uint64_t rejected() const { return rejected_; }
+  uint64_t assignments_written() const { return assignments_written_; }  // of written()
 
  private:
   DdsTeamBus() = default;
@@ -50,11 +68,13 @@ class DdsTeamBus {
     std::unique_ptr<Participant> participant;
     std::unique_ptr<Writer> writer;
     std::unique_ptr<Reader> reader;
-    uint64_t number = 0;  // messages written so far
+    std::unique_ptr<Writer> assign_writer;  // the task-assignment topic
+    std::unique_ptr<Reader> assign_reader;
+    uint64_t number = 0, assign_number = 0;  // messages written so far, per topic
   };
   std::vector<Node> nodes_;
   Options options_;
-  uint64_t written_ = 0, delivered_ = 0, rejected_ = 0;
+  uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, assignments_written_ = 0;
 };
 
 // One robot's side of the team topic, for a process that runs that robot alone (`vigil
@@ -82,6 +102,7 @@ class DdsTeamLink {
   uint64_t delivered() const { return delivered_; }
   uint64_t rejected() const { return rejected_; }
   uint64_t stale() const { return stale_; }
+  uint64_t assignments_written() const { return assignments_written_; }  // of written()
 
  private:
   DdsTeamLink() = default;
@@ -90,8 +111,10 @@ class DdsTeamLink {
   std::unique_ptr<Participant> participant_;
   std::unique_ptr<Writer> writer_;
   std::unique_ptr<Reader> reader_;
-  uint64_t number_ = 0;
-  uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, stale_ = 0;
+  std::unique_ptr<Writer> assign_writer_;
+  std::unique_ptr<Reader> assign_reader_;
+  uint64_t number_ = 0, assign_number_ = 0;
+  uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, stale_ = 0, assignments_written_ = 0;
 };
 
 }  // namespace vigil::dds

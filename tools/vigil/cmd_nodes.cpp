@@ -21,7 +21,10 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "plugins/builtin.h"
 #include "plugins/dds_bridge/dds.h"
@@ -307,15 +310,63 @@ int64_t monotonic_ns() {
   return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
+// `vigil events --assignments`: the allocation's decisions as the robots announce them. Tokens
+// and acknowledgements are the protocol's chatter and keepers repeat their announcement every
+// keep period, so a line is printed when a robot first keeps an incident, and for every task done
+// or reopened.
+void print_assignments(const dds::Participant& part, int count, double timeout) {
+  auto reader = dds::Reader::create(part, dds::Topic::kTaskAssignments);
+  if (!reader) throw Exit{report(reader.error())};
+  std::set<std::pair<uint64_t, std::string>> kept;
+  const auto t0 = std::chrono::steady_clock::now();
+  int n = 0;
+  while (!g_stop && (count <= 0 || n < count)) {
+    (*reader)->wait(0.1);
+    Status st = (*reader)->take_each([&](const void* sample, const dds_sample_info_t&) {
+      uint64_t number = 0;
+      const auto& x = *static_cast<const vigil_msgs_TaskAssignment*>(sample);
+      auto m = dds::from_assignment(x, &number);
+      if (!m) {
+        std::fprintf(stderr, "events: rejected task assignment: %s\n", m.error().str().c_str());
+        return;
+      }
+      if (m->kind == "token" || m->kind == "token_ack") return;
+      if (m->kind == "token_keep" && !kept.insert({m->task, m->from}).second) return;
+      const char* state = m->kind == "token_keep" ? "keep" : m->kind == "task_done" ? "done" : "reopen";
+      nlohmann::json j;
+      j["incident"] = m->task;
+      j["state"] = state;
+      j["robot"] = std::string(x.robot);
+      j["from"] = m->from;
+      j["t_ns"] = m->sent;
+      if (m->kind == "token_keep") {
+        j["kind"] = std::string(x.task_kind);
+        j["target"] = {m->position.x, m->position.y};
+      }
+      if (count <= 0 || n < count) {
+        std::printf("%s\n", j.dump().c_str());
+        ++n;
+      }
+    });
+    if (!st) throw Exit{report(st.error())};
+    std::fflush(stdout);
+    if (timeout > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= timeout) break;
+  }
+  if (count > 0 && n < count) throw Exit{1};
+}
+
 void add_events(CLI::App& app) {
   struct Opts {
     int count = 0;
     double timeout = 0;
-    bool text = false, latency = false;
+    bool text = false, latency = false, assignments = false;
     DdsOpts dds;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("events", "Subscribe to the video server's incidents and print them as JSON lines");
+  cmd->add_flag("--assignments", o->assignments,
+                "print the robots' task assignments instead (topic vigil_task_assignments): who keeps which "
+                "incident, tasks done and reopened, as JSON lines; --count counts them");
   cmd->add_option("--count", o->count, "exit after this many incidents (0: no limit)")->capture_default_str();
   cmd->add_option("--timeout", o->timeout, "exit after this many seconds (0: run until SIGINT/SIGTERM)")->capture_default_str();
   cmd->add_flag("--text", o->text, "print the chapter's string form (\"left bag X Y Z\") instead of JSON");
@@ -325,6 +376,10 @@ void add_events(CLI::App& app) {
   cmd->callback([o] {
     catch_signals();
     auto part = participant(o->dds);
+    if (o->assignments) {
+      print_assignments(*part, o->count, o->timeout);
+      return;
+    }
     auto sub = dds::IncidentSubscriber::create(*part);
     if (!sub) throw Exit{report(sub.error())};
     const auto t0 = std::chrono::steady_clock::now();
@@ -470,9 +525,10 @@ void add_robot_node(CLI::App& app) {
     auto sum = run_scenario(sc, ro);
     if (!sum) throw Exit{report(sum.error())};
     std::fprintf(stderr,
-                 "robot-node %s: %.1f s simulated, %zu incidents in, team messages %llu written, %llu delivered, %llu stale, "
-                 "%llu malformed; %zu pictures (session %s)\n",
+                 "robot-node %s: %.1f s simulated, %zu incidents in, team messages %llu written (%llu task assignments), "
+                 "%llu delivered, %llu stale, %llu malformed; %zu pictures (session %s)\n",
                  id.c_str(), sum->sim_seconds, incidents, static_cast<unsigned long long>(lp->written()),
+                 static_cast<unsigned long long>(lp->assignments_written()),
                  static_cast<unsigned long long>(lp->delivered()), static_cast<unsigned long long>(lp->stale()),
                  static_cast<unsigned long long>(lp->rejected()), pictures.pictures().size(), o->dds.session.c_str());
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o->linger);

@@ -189,8 +189,10 @@ void add_run_command(CLI::App& app) {
                 summary->scenario.c_str(), summary->sim_seconds, summary->wall_seconds, summary->real_time_factor,
                 static_cast<unsigned long long>(summary->steps), summary->events);
     if (team_bus) {
-      std::printf("team messages over DDS: %llu written, %llu delivered, %llu malformed dropped\n",
-                  static_cast<unsigned long long>(team_bus->written()), static_cast<unsigned long long>(team_bus->delivered()),
+      std::printf("team messages over DDS: %llu written (%llu on vigil_task_assignments), %llu delivered, %llu malformed dropped\n",
+                  static_cast<unsigned long long>(team_bus->written()),
+                  static_cast<unsigned long long>(team_bus->assignments_written()),
+                  static_cast<unsigned long long>(team_bus->delivered()),
                   static_cast<unsigned long long>(team_bus->rejected()));
     }
     std::printf("ground_truth_sha256 %s\noutputs in %s\n", summary->ground_truth_sha256.c_str(), ro.out_dir.c_str());
