@@ -437,6 +437,14 @@ TEST(Partition, ShortDeadEndsShareARegionRatherThanStrandARobot) {
   EXPECT_LT(plan_regions(*g, d, 12, o).count(), 12);
   // Without the least walk, 12 robots get 12 regions of one door each.
   EXPECT_EQ(plan_regions(*g, d, 12).count(), 12);
+  // With short regions padded by detours (the controller drives round a point off the graph),
+  // a region of one door is a robot's own again and counts as the least walk: 12 regions, and
+  // a share no longer than the padded walk.
+  o.pad_short = true;
+  const GraphPartition padded = plan_regions(*g, d, 12, o);
+  EXPECT_EQ(padded.count(), 12);
+  EXPECT_LE(padded.longest_share(), 3.0 + 1e-9);
+  EXPECT_EQ(plan_regions(*g, d, 6, o).count(), 6);
 }
 
 TEST(Partition, RobotsSharingARegionSpreadAlongItsWalkAndPaceOnlyWithEachOther) {
@@ -539,4 +547,5 @@ TEST(Idleness, VisitsNeedLeavingBeforeCountingAgain) {
 }
 
 }  // namespace
+
 }  // namespace vigil::planning::patrol

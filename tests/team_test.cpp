@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -250,6 +251,70 @@ TEST(Team, CyclicPatrolCoversTheGraphAndRepeatsByteForByte) {
   EXPECT_NEAR(eval["patrol"]["reference_s"].get<double>(), eval["patrol"]["tour_m"].get<double>() / 2.0, 1e-6);
   fs::remove_all(a.dir);
   fs::remove_all(b.dir);
+}
+
+// A region too short for visits to count (two vertices 0.7 m apart across the DIS corridor: a
+// robot reaching one within the visit radius never leaves the other beyond 1.5 visit radii):
+// with detours the robot drives round a point off the graph on every leg and both vertices are
+// visited again and again (measured on its true positions); without, each is visited once.
+TEST(Team, AShortRegionIsDrivenWithDetoursSoItsVisitsCount) {
+  const fs::path dir = test::fresh_temp_dir("team", "detour");
+  {
+    std::ofstream g(dir / "pair.graph");
+    g << "2\n880\n640\n0.05\n0\n0\n\n"
+         "0\n200\n55\n1\n1\nN\n14\n\n"
+         "1\n200\n69\n1\n0\nS\n14\n\n";
+  }
+  auto visits_with = [&](bool detours) {
+    const std::string yaml = R"(
+name: team_detour
+map: ../maps/dis_labs.floorplan.yaml
+duration: 120
+seed: 2
+physics_rate_hz: 10
+record_rate_hz: 5
+robots:
+  - id: robot1
+    urdf: ../maps/robots/erratic.urdf
+    start: [8.0, 3.1, 0]
+    controller: team
+    max_speed: 1.0
+    params: {graph: )" + (dir / "pair.graph").string() + R"(, strategy: partition, speed: 1.0, region_detours: )" +
+                             (detours ? "true" : "false") + R"(}
+    ranger: {range_max: 20, fov_deg: 270, samples: 271, noise_std: 0.01, rate_hz: 10}
+    odometry: {error: [0.01, 0.01, 0.1]}
+)";
+    auto sc = parse_scenario(yaml, test::source_dir() / "scenarios" / "inline_detour.yaml");
+    EXPECT_TRUE(sc.ok()) << sc.error().str();
+    std::vector<int> count(2, 0);
+    if (!sc.ok()) return count;
+    planning::patrol::VisitDetector det({{10.0, 2.75}, {10.0, 3.45}}, 0.5);
+    struct Watch : RunObserver {
+      planning::patrol::VisitDetector* det;
+      Status after_step(const World& w) override {
+        for (const RobotEntity& r : w.robots()) det->observe(r.spec.id, to_seconds(w.time()), r.pose.position());
+        return Status::Ok();
+      }
+    } watch;
+    watch.det = &det;
+    RunOptions ro;
+    ro.world.plugins = builtin_plugin_registry();
+    ro.out_dir = dir / (detours ? "with" : "without");
+    ro.video = false;
+    ro.observers.push_back(&watch);
+    auto run = run_scenario(*sc, ro);
+    EXPECT_TRUE(run.ok()) << run.error().str();
+    for (const auto& v : det.visits()) ++count[static_cast<size_t>(v.vertex)];
+    return count;
+  };
+  const std::vector<int> with = visits_with(true), without = visits_with(false);
+  std::printf("visits with detours %d %d, without %d %d\n", with[0], with[1], without[0], without[1]);
+  // Round trip about 4 m and four turns: one visit of each every 10 s or so.
+  EXPECT_GE(with[0], 8);
+  EXPECT_GE(with[1], 8);
+  EXPECT_LE(without[0], 2);
+  EXPECT_LE(without[1], 2);
+  fs::remove_all(dir);
 }
 
 TEST(Team, PartitionSplitsTheGraphAndASilentMateSShareIsTakenOver) {

@@ -1,6 +1,7 @@
 #include "planning/patrol/partition.h"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -512,25 +513,40 @@ GraphPartition plan_regions(const PatrolGraph& g, const GraphDistances& d, int t
   const int n = static_cast<int>(g.size());
   if (n == 0 || team <= 0) return best;
   Score best_score;
+  PartitionOptions split = o;
+  if (o.pad_short) split.min_walk = 0;  // short regions are padded, not avoided
   for (int q = std::min(team, n); q >= 1; --q) {
-    GraphPartition p = partition_graph(g, d, q, o);
+    GraphPartition p = partition_graph(g, d, q, split);
     // One robot each, then every further robot to the region with the longest share.
     p.robots.assign(static_cast<size_t>(p.count()), 1);
+    auto length = [&](size_t r) { return o.pad_short ? std::max(p.walks[r].length, o.min_walk) : p.walks[r].length; };
     auto share = [&](size_t r) {
-      return p.walks[r].length / p.robots[r] * (1.0 + shared_cost * (p.robots[r] - 1));
+      return length(r) / p.robots[r] * (1.0 + shared_cost * (p.robots[r] - 1));
     };
+    // A padded region is one robot's detour loop: never shared. Robots left with no region to
+    // share make the plan undersized.
+    auto shareable = [&](size_t r) { return !o.pad_short || p.walks[r].length >= o.min_walk - kEps; };
+    int stranded = 0;
     for (int extra = team - p.count(); extra > 0; --extra) {
-      size_t worst = 0;
-      for (size_t r = 1; r < p.walks.size(); ++r) {
-        if (share(r) > share(worst) + kEps) worst = r;
+      std::optional<size_t> worst;
+      for (size_t r = 0; r < p.walks.size(); ++r) {
+        if (shareable(r) && (!worst || share(r) > share(*worst) + kEps)) worst = r;
       }
-      ++p.robots[worst];
+      if (!worst) {
+        worst = 0;
+        for (size_t r = 1; r < p.walks.size(); ++r) {
+          if (share(r) > share(*worst) + kEps) worst = r;
+        }
+        ++stranded;
+      }
+      ++p.robots[*worst];
     }
     Score sc;
+    sc.undersized = stranded;
     const int min_size = o.min_size > 0 ? o.min_size : (n >= 2 * q ? 2 : 1);
     for (int r = 0; r < p.count(); ++r) {
       const auto members = static_cast<int>(std::count(p.region.begin(), p.region.end(), r));
-      sc.undersized += members < min_size || p.walks[static_cast<size_t>(r)].length < o.min_walk - kEps;
+      sc.undersized += members < min_size || (!o.pad_short && p.walks[static_cast<size_t>(r)].length < o.min_walk - kEps);
       sc.longest = std::max(sc.longest, share(static_cast<size_t>(r)));
     }
     // More regions win ties (fewer robots share a walk).

@@ -29,6 +29,11 @@ struct PartitionOptions {
   // two vertices closer than about three visit radii never leaves one far enough for the
   // next visit of it to count.
   double min_walk = 0;
+  // plan_regions: regions shorter than min_walk are driven with detours off the graph that make
+  // them about min_walk long (the team controller's), so they count as min_walk long rather
+  // than too short. Lets a team larger than the graph's room for regions of min_walk take
+  // short regions of its own instead of sharing longer ones.
+  bool pad_short = false;
   // plan_regions: what several robots on one walk lose to meeting each other, as a share of
   // their walk per extra robot.
   double shared_cost = 0.1;

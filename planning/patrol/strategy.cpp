@@ -22,16 +22,18 @@ std::shared_ptr<const PatrolSetup> PatrolSetup::make(PatrolGraph g, CostMatrix t
 
 struct PatrolSetup::PartitionCache {
   std::mutex mu;
-  std::map<std::tuple<int, long long, long long>, std::shared_ptr<const GraphPartition>> by_count;
+  std::map<std::tuple<int, long long, long long, bool>, std::shared_ptr<const GraphPartition>> by_count;
 };
 
-std::shared_ptr<const GraphPartition> PatrolSetup::partition(int count, double min_walk, double shared_cost) const {
+std::shared_ptr<const GraphPartition> PatrolSetup::partition(int count, double min_walk, double shared_cost,
+                                                             bool pad_short) const {
   std::lock_guard<std::mutex> lock(partitions->mu);
-  auto& p = partitions->by_count[{count, std::llround(min_walk * 1000.0), std::llround(shared_cost * 1000.0)}];
+  auto& p = partitions->by_count[{count, std::llround(min_walk * 1000.0), std::llround(shared_cost * 1000.0), pad_short}];
   if (!p) {
     PartitionOptions o;
     o.min_walk = min_walk;
     o.shared_cost = shared_cost;
+    o.pad_short = pad_short;
     p = std::make_shared<const GraphPartition>(plan_regions(graph, distances, count, o));
   }
   return p;
@@ -189,7 +191,8 @@ class Partition : public PatrolStrategy {
   // least total distance from where they are (every member computes the same); the members of
   // my region spread along its walk as the cyclic strategy spreads a team.
   void set_team(const std::vector<std::string>& members, const std::vector<Vec2>& where, int me) override {
-    const auto plan = s_->partition(static_cast<int>(members.size()), p_.min_region_walk, p_.region_share_cost);
+    const auto plan = s_->partition(static_cast<int>(members.size()), p_.min_region_walk, p_.region_share_cost,
+                                    p_.region_detours);
     const std::vector<int> regions = assign_regions(s_->graph, s_->distances, *plan, where);
     const int r = me >= 0 && static_cast<size_t>(me) < regions.size() ? regions[static_cast<size_t>(me)] : -1;
     std::vector<std::string> mine;
@@ -206,7 +209,9 @@ class Partition : public PatrolStrategy {
     // No region (more members than places): the whole graph's walk.
     walk_ = std::make_unique<Cyclic>(s_, p_, r >= 0 ? plan->walks[static_cast<size_t>(r)] : s_->tour);
     walk_->set_team(mine, at, my_index);
+    short_ = p_.region_detours && r >= 0 && plan->walks[static_cast<size_t>(r)].length < p_.min_region_walk;
   }
+  bool short_walk() const override { return short_; }
   int next(int at, Vec2 p, const PatrolKnowledge& k) override { return walk_ ? walk_->next(at, p, k) : -1; }
   int64_t walk_index() const override { return walk_ ? walk_->walk_index() : -1; }
   double phase(double remaining) const override { return walk_ ? walk_->phase(remaining) : -1; }
@@ -225,6 +230,7 @@ class Partition : public PatrolStrategy {
   StrategyParams p_;
   std::unique_ptr<Cyclic> walk_;
   std::set<std::string> region_mates_;
+  bool short_ = false;
 };
 
 class Greedy : public PatrolStrategy {

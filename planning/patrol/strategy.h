@@ -40,7 +40,9 @@ struct PatrolSetup {
   // The regions of a team of `count` (plan_regions, partition.h) with walks at least
   // `min_walk` long where the graph allows, computed once per count and shared by every member
   // (thread-safe).
-  std::shared_ptr<const GraphPartition> partition(int count, double min_walk = 0, double shared_cost = 0.1) const;
+  // `pad_short`: shorter regions are padded with detours (PartitionOptions::pad_short).
+  std::shared_ptr<const GraphPartition> partition(int count, double min_walk = 0, double shared_cost = 0.1,
+                                                  bool pad_short = false) const;
 
   struct PartitionCache;
   std::shared_ptr<PartitionCache> partitions;
@@ -87,6 +89,10 @@ class PatrolStrategy {
   // growing until a hold at a vertex catches it. 1 when spacing is even or alone.
   // `mates`: each mate's name and phase.
   virtual double pace(double /*mine*/, const std::vector<std::pair<std::string, double>>& /*mates*/) const { return 1; }
+  // True when my walk is too short for visits to count on their own (a partition region under
+  // min_region_walk, with region_detours): the controller drives a detour off the graph on
+  // every leg too short to leave the last vertex behind.
+  virtual bool short_walk() const { return false; }
 };
 
 // The pace law (cyclic): `ahead` and `behind` the arc gaps to the nearest mates either side,
@@ -101,6 +107,7 @@ struct StrategyParams {
   double pace_band = 0.1;  // cyclic: uneven spacing (behind - ahead) tolerated, as a share of the even spacing
   double min_region_walk = 0;  // partition: regions' walks at least this long (m) where the graph allows
   double region_share_cost = 0.1;  // partition: a shared region's walk counts this much more per extra robot
+  bool region_detours = false;  // partition: regions under min_region_walk are driven with detours (short_walk())
 };
 
 const std::vector<std::string>& strategy_names();

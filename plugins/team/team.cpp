@@ -118,6 +118,8 @@ class Team : public Plugin {
          "partition: each robot's region walk at least this long where the graph allows (m): a robot shuttling between two vertices closer than about three visit radii never leaves one far enough for its next visit to count"},
         {"region_share_cost", ParamType::kNumber, 0.1, 0.0, 10.0,
          "partition: what robots sharing a region's walk lose to meeting each other, as a share of the walk per extra robot (large: a region each where the graph has room)"},
+        {"region_detours", ParamType::kBool, true, 0, 0,
+         "partition: a region shorter than min_region_walk is still a robot's own; on a leg too short to leave the last vertex behind the robot drives round a point off the graph (1.5 visit radii and more from both), so its visits count"},
     };
     p.insert(p.end(), own.begin(), own.end());
     return p;
@@ -145,6 +147,7 @@ class Team : public Plugin {
     params_.pace_band = p.number("pace_band");
     params_.min_region_walk = p.number("min_region_walk");
     params_.region_share_cost = p.number("region_share_cost");
+    params_.region_detours = p.boolean("region_detours");
     spacing_pace_ = p.boolean("spacing_pace");
     leaf_wait_distance_ = p.number("leaf_wait_distance");
     leaf_wait_time_ = from_seconds(p.number("leaf_wait_time"));
@@ -815,8 +818,36 @@ class Team : public Plugin {
     const Vec2 goal = setup_->graph.vertex(v).position;
     const Vec2 p = nav_.pose().position();
     eta_ = knowledge_.now + (last_at_ >= 0 ? setup_->travel(last_at_, v) : (goal - p).norm()) / setup_->speed;
-    nav_.go_to(goal, 0, "vertex " + std::to_string(v), true);
+    detour_.reset();
+    if (last_at_ >= 0 && v >= 0 && strategy_->short_walk()) detour_ = detour_point(setup_->graph.vertex(last_at_).position, goal);
+    if (detour_) {
+      eta_ += (2.0 * (*detour_ - goal).norm() - (goal - p).norm()) / setup_->speed;
+      nav_.go_to(*detour_, 0, "detour to vertex " + std::to_string(v), true);
+    } else {
+      nav_.go_to(goal, 0, "vertex " + std::to_string(v), true);
+    }
     tell_visit(cmd, visited);
+  }
+
+  // A leg from `a` to `b` too short to leave `a` behind (a visit of `a` counts again only after
+  // the robot has gone beyond 1.5 visit radii of it; reaching `b` within the visit radius may
+  // not take it that far): a point off the graph at least that far from both, beside the leg
+  // on its left (the same side every leg, so a robot going back and forth drives round), else
+  // its right, else beyond `b`; free for the robot and in sight of both. None when the leg is
+  // long enough or no such point is free.
+  std::optional<Vec2> detour_point(Vec2 a, Vec2 b) const {
+    const double rearm = 1.5 * visit_radius_ + 0.2;
+    const double d = (b - a).norm();
+    if (d - visit_radius_ >= rearm) return std::nullopt;
+    const Vec2 u = d > 1e-6 ? (b - a) * (1.0 / d) : Vec2{1.0, 0.0};
+    const Vec2 left{-u.y, u.x};
+    const Vec2 mid = (a + b) * 0.5;
+    const double h = std::sqrt(std::max(0.0, rearm * rearm - 0.25 * d * d));
+    const auto& grid = nav_.planner().inflated();
+    for (const Vec2 c : {mid + left * h, mid - left * h, b + u * rearm}) {
+      if (grid.is_free(c) && grid.segment_free(a, c) && grid.segment_free(c, b)) return c;
+    }
+    return std::nullopt;
   }
 
   void patrol(ModelCommand& cmd) {
@@ -838,9 +869,19 @@ class Team : public Plugin {
         if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(0.5) && (m.where - tv).norm() <= visit_radius_) taken = true;
       }
     }
-    const bool reached = target_ >= 0 && (to_target <= (leaf ? reach_radius_ : visit_radius_) || taken ||
-                                          (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
+    const bool reached = !detour_ && target_ >= 0 &&
+                         (to_target <= (leaf ? reach_radius_ : visit_radius_) || taken ||
+                          (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
     visited_now_.clear();
+    if (detour_ && target_ >= 0) {
+      // Round the detour point (passed within 0.3 m, or the navigator stopped or gave it up),
+      // then on to the vertex.
+      if ((*detour_ - p).norm() <= 0.3 || !nav_.has_goal()) {
+        detour_.reset();
+        nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      }
+      return;
+    }
     if (target_ < 0) {
       last_at_ = -1;
       head_for(strategy_->next(-1, p, knowledge_), cmd, -1);
@@ -855,6 +896,7 @@ class Team : public Plugin {
       const bool clear = !mate_within(2.0) && (there || now_ - yield_from_ >= from_seconds(1.0));
       if (now_ < yield_until_ && !clear) return;
       yielding_ = false;
+      detour_.reset();
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       return;
     }
@@ -878,6 +920,7 @@ class Team : public Plugin {
       // A mate coming the other way would have to squeeze past: go on instead.
       if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_ && !mate_close()) return;
       holding_ = false;
+      detour_.reset();
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       eta_ = knowledge_.now + setup_->travel(last_at_, target_) / setup_->speed;
       tell_visit(cmd, -1);
@@ -944,6 +987,7 @@ class Team : public Plugin {
   std::string strategy_name_;
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
+  std::optional<Vec2> detour_;  // a short region's leg: the point rounded before the vertex
   double visit_radius_ = 0.5, reach_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
