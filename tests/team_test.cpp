@@ -255,7 +255,7 @@ TEST(Team, CyclicPatrolCoversTheGraphAndRepeatsByteForByte) {
 
 // A region too short for visits to count (two vertices 0.7 m apart across the DIS corridor: a
 // robot reaching one within the visit radius never leaves the other beyond 1.5 visit radii):
-// with detours the robot drives round a point off the graph on every leg and both vertices are
+// with detours the robot drives a loop off the graph through both vertices and both are
 // visited again and again (measured on its true positions); without, each is visited once.
 TEST(Team, AShortRegionIsDrivenWithDetoursSoItsVisitsCount) {
   const fs::path dir = test::fresh_temp_dir("team", "detour");
@@ -309,7 +309,7 @@ robots:
   };
   const std::vector<int> with = visits_with(true), without = visits_with(false);
   std::printf("visits with detours %d %d, without %d %d\n", with[0], with[1], without[0], without[1]);
-  // Round trip about 4 m and four turns: one visit of each every 10 s or so.
+  // A loop of about 5 m with four turns: one visit of each every 8 s or so.
   EXPECT_GE(with[0], 8);
   EXPECT_GE(with[1], 8);
   EXPECT_LE(without[0], 2);

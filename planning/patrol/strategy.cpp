@@ -248,12 +248,16 @@ class Greedy : public PatrolStrategy {
     }
     std::set<int> taken;
     for (const auto& [who, in] : k.others) taken.insert(in.vertex);
-    for (int pass = 0; pass < 2; ++pass) {
+    // A vertex I am still inside (a visit would not count) is no target: going back and forth
+    // between two vertices closer than the re-arm distance would count nothing and keep both
+    // looking idle. Then vertices others head for only if nothing else is left.
+    for (int pass = 0; pass < 3; ++pass) {
       int best = -1;
       double bu = -std::numeric_limits<double>::infinity();
       for (size_t u = 0; u < n; ++u) {
         const int ui = static_cast<int>(u);
         if (ui == at && n > 1) continue;
+        if (pass < 2 && u < k.inside.size() && k.inside[u]) continue;
         if (pass == 0 && taken.count(ui)) continue;
         const double travel = (s_->travel(from, ui) + extra) / s_->speed;
         const double idle = k.now - (u < k.last_visit.size() ? k.last_visit[u] : 0.0);

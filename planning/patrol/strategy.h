@@ -58,6 +58,9 @@ struct PatrolKnowledge {
     int64_t walk_index = -1;            // cyclic: its place on the shared walk (-1: none)
   };
   std::map<std::string, Intention> others;  // other members' current targets
+  // Per vertex: I visited it and have not yet gone far enough from it for my next visit to
+  // count (visits re-arm beyond 1.5 visit radii). Empty: unknown (every vertex counts).
+  std::vector<char> inside;
   // Merges a visit heard from anyone.
   void visited(int vertex, double t) {
     if (vertex >= 0 && static_cast<size_t>(vertex) < last_visit.size() && t > last_visit[vertex]) last_visit[vertex] = t;

@@ -194,7 +194,7 @@ class Team : public Plugin {
     failed_at_ = -1;
     target_ = -1;
     last_at_ = -1;
-    inside_.assign(setup_->graph.size(), 0);
+    knowledge_.inside.assign(setup_->graph.size(), 0);
     next_hello_ = 0;
     role_ = "patrol";
     responding_ = false;
@@ -791,12 +791,12 @@ class Team : public Plugin {
     const Vec2 p = nav_.pose().position();
     for (size_t i = 0; i < setup_->graph.size(); ++i) {
       const double d = (setup_->graph.vertex(i).position - p).norm();
-      if (!inside_[i] && d <= visit_radius_) {
-        inside_[i] = 1;
+      if (!knowledge_.inside[i] && d <= visit_radius_) {
+        knowledge_.inside[i] = 1;
         knowledge_.visited(static_cast<int>(i), knowledge_.now);
         visited_now_.push_back(static_cast<int>(i));
-      } else if (inside_[i] && d > 1.5 * visit_radius_) {
-        inside_[i] = 0;
+      } else if (knowledge_.inside[i] && d > 1.5 * visit_radius_) {
+        knowledge_.inside[i] = 0;
       }
     }
   }
@@ -818,11 +818,13 @@ class Team : public Plugin {
     const Vec2 goal = setup_->graph.vertex(v).position;
     const Vec2 p = nav_.pose().position();
     eta_ = knowledge_.now + (last_at_ >= 0 ? setup_->travel(last_at_, v) : (goal - p).norm()) / setup_->speed;
-    detour_.reset();
-    if (last_at_ >= 0 && v >= 0 && strategy_->short_walk()) detour_ = detour_point(setup_->graph.vertex(last_at_).position, goal);
-    if (detour_) {
-      eta_ += (2.0 * (*detour_ - goal).norm() - (goal - p).norm()) / setup_->speed;
-      nav_.go_to(*detour_, 0, "detour to vertex " + std::to_string(v), true);
+    detour_.clear();
+    if (last_at_ >= 0 && v >= 0 && strategy_->short_walk()) detour_ = detour_points(setup_->graph.vertex(last_at_).position, goal);
+    if (!detour_.empty()) {
+      double len = (detour_.front() - p).norm() + (goal - detour_.back()).norm();
+      for (size_t i = 1; i < detour_.size(); ++i) len += (detour_[i] - detour_[i - 1]).norm();
+      eta_ = knowledge_.now + len / setup_->speed;
+      nav_.go_to(detour_.front(), 0, "detour to vertex " + std::to_string(v), true);
     } else {
       nav_.go_to(goal, 0, "vertex " + std::to_string(v), true);
     }
@@ -831,23 +833,48 @@ class Team : public Plugin {
 
   // A leg from `a` to `b` too short to leave `a` behind (a visit of `a` counts again only after
   // the robot has gone beyond 1.5 visit radii of it; reaching `b` within the visit radius may
-  // not take it that far): a point off the graph at least that far from both, beside the leg
-  // on its left (the same side every leg, so a robot going back and forth drives round), else
-  // its right, else beyond `b`; free for the robot and in sight of both. None when the leg is
-  // long enough or no such point is free.
-  std::optional<Vec2> detour_point(Vec2 a, Vec2 b) const {
+  // not take it that far): a way round off the graph, at least that far from both vertices.
+  // First choice, a loop beside the leg: out from `a` square to the leg on its left, along, and
+  // in to `b`; the way back (left of the return leg) is the other side, so a robot going back
+  // and forth drives round a rectangle and passes through each vertex in a straight line (its
+  // visits count with the estimate a little off). Else the mirror image; else one point beside
+  // the leg's middle, either side; else one beyond `b`. Each point free for the robot and in
+  // sight of the one before, with room round it. Empty when the leg is long enough or nothing
+  // is free.
+  std::vector<Vec2> detour_points(Vec2 a, Vec2 b) const {
     const double rearm = 1.5 * visit_radius_ + 0.2;
     const double d = (b - a).norm();
-    if (d - visit_radius_ >= rearm) return std::nullopt;
+    if (d - visit_radius_ >= rearm) return {};
     const Vec2 u = d > 1e-6 ? (b - a) * (1.0 / d) : Vec2{1.0, 0.0};
     const Vec2 left{-u.y, u.x};
+    const auto& grid = nav_.planner().inflated();
+    // Room round a point: the navigator's forward check stops short of walls the planner's
+    // inflation allows, so a point hugging a wall may never be reached.
+    auto roomy = [&](Vec2 q) {
+      constexpr double kRoom = 0.35;
+      return grid.is_free(q) && grid.is_free(q + Vec2{kRoom, 0}) && grid.is_free(q - Vec2{kRoom, 0}) &&
+             grid.is_free(q + Vec2{0, kRoom}) && grid.is_free(q - Vec2{0, kRoom});
+    };
+    auto free_way = [&](const std::vector<Vec2>& pts) {
+      Vec2 from = a;
+      for (const Vec2& q : pts) {
+        if (!roomy(q) || !grid.segment_free(from, q)) return false;
+        from = q;
+      }
+      return grid.segment_free(from, b);
+    };
+    for (const double side : {1.0, -1.0}) {
+      const Vec2 off = left * (side * rearm);
+      std::vector<Vec2> pts{a + off};
+      if (d > 1e-6) pts.push_back(b + off);
+      if (free_way(pts)) return pts;
+    }
     const Vec2 mid = (a + b) * 0.5;
     const double h = std::sqrt(std::max(0.0, rearm * rearm - 0.25 * d * d));
-    const auto& grid = nav_.planner().inflated();
     for (const Vec2 c : {mid + left * h, mid - left * h, b + u * rearm}) {
-      if (grid.is_free(c) && grid.segment_free(a, c) && grid.segment_free(c, b)) return c;
+      if (free_way({c})) return {c};
     }
-    return std::nullopt;
+    return {};
   }
 
   void patrol(ModelCommand& cmd) {
@@ -869,16 +896,20 @@ class Team : public Plugin {
         if (m.pose_time >= 0 && now_ - m.pose_time <= from_seconds(0.5) && (m.where - tv).norm() <= visit_radius_) taken = true;
       }
     }
-    const bool reached = !detour_ && target_ >= 0 &&
+    const bool reached = detour_.empty() && target_ >= 0 &&
                          (to_target <= (leaf ? reach_radius_ : visit_radius_) || taken ||
                           (!nav_.has_goal() && nav_.mode() != "failed" && to_target <= visit_radius_));
     visited_now_.clear();
-    if (detour_ && target_ >= 0) {
-      // Round the detour point (passed within 0.3 m, or the navigator stopped or gave it up),
+    if (!detour_.empty() && target_ >= 0) {
+      // Round each detour point (passed within 0.3 m, or the navigator stopped or gave it up),
       // then on to the vertex.
-      if ((*detour_ - p).norm() <= 0.3 || !nav_.has_goal()) {
-        detour_.reset();
-        nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      if ((detour_.front() - p).norm() <= 0.3 || !nav_.has_goal()) {
+        detour_.erase(detour_.begin());
+        if (!detour_.empty()) {
+          nav_.go_to(detour_.front(), 0, "detour to vertex " + std::to_string(target_), true);
+        } else {
+          nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+        }
       }
       return;
     }
@@ -896,7 +927,7 @@ class Team : public Plugin {
       const bool clear = !mate_within(2.0) && (there || now_ - yield_from_ >= from_seconds(1.0));
       if (now_ < yield_until_ && !clear) return;
       yielding_ = false;
-      detour_.reset();
+      detour_.clear();
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       return;
     }
@@ -920,7 +951,7 @@ class Team : public Plugin {
       // A mate coming the other way would have to squeeze past: go on instead.
       if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_ && !mate_close()) return;
       holding_ = false;
-      detour_.reset();
+      detour_.clear();
       nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
       eta_ = knowledge_.now + setup_->travel(last_at_, target_) / setup_->speed;
       tell_visit(cmd, -1);
@@ -987,7 +1018,7 @@ class Team : public Plugin {
   std::string strategy_name_;
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
-  std::optional<Vec2> detour_;  // a short region's leg: the point rounded before the vertex
+  std::vector<Vec2> detour_;  // a short region's leg: the points rounded before the vertex
   double visit_radius_ = 0.5, reach_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
@@ -1007,7 +1038,6 @@ class Team : public Plugin {
   SimTime hold_until_ = 0, failed_at_ = -1;
   int target_ = -1, last_at_ = -1;
   double eta_ = 0;
-  std::vector<char> inside_;
   std::vector<int> visited_now_;
   std::string role_ = "patrol";
   std::vector<RobotTask> pending_;
