@@ -104,7 +104,7 @@ class PatrolStrategy {
 double spacing_pace(double ahead, double behind, double spacing, double gain, double min_pace, double band = 0);
 
 struct StrategyParams {
-  double theta = 1.0;      // greedy: seconds of idleness one second of travel is worth
+  double theta = 4.0;      // greedy: seconds of idleness one second of travel is worth (docs/PERFORMANCE.md: 1 to 8 studied on three graphs)
   double pace_gain = 2.0;  // cyclic: how hard the pace reacts to uneven spacing (0: never slows)
   double min_pace = 0.3;   // cyclic: the slowest share of cruise speed the pace asks for
   double pace_band = 0.1;  // cyclic: uneven spacing (behind - ahead) tolerated, as a share of the even spacing

@@ -89,7 +89,7 @@ class Team : public Plugin {
     const std::vector<ParamSpec> own = {
         {"graph", ParamType::kString, std::string(""), 0, 0, "patrol graph file (patrolling_sim format), relative to the scenario"},
         {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},
-        {"theta", ParamType::kNumber, 1.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
+        {"theta", ParamType::kNumber, 4.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
         {"reach_radius", ParamType::kNumber, 0.5, 0.05, 10.0,
          "a dead end's vertex (a leaf of the graph, where the robot turns round anyway) counts as reached within this distance of the estimate (m; at most visit_radius; other vertices: visit_radius): closer than the visit radius, so that the visit still counts with the estimate a little off"},
