@@ -94,7 +94,9 @@ TEST(TeamBus, DeliversNextStepToTheAddresseeOrEveryoneElse) {
   EXPECT_EQ(from_c["a"], 19);
   // In order, and never in the step it was sent.
   for (size_t i = 1; i < g["c"].size(); ++i) {
-    if (g["c"][i].from == "a" && g["c"][i - 1].from == "a") EXPECT_GT(g["c"][i].seq, g["c"][i - 1].seq);
+    if (g["c"][i].from == "a" && g["c"][i - 1].from == "a") {
+      EXPECT_GT(g["c"][i].seq, g["c"][i - 1].seq);
+    }
   }
 }
 
@@ -124,7 +126,9 @@ TEST(TeamBus, LatencyLossAndSilenceAreFaultsAProtocolMustSurvive) {
   for (auto& [who, ms] : Chatter::got) {
     for (auto& m : ms) {
       const bool in_window = m.sent >= from_seconds(0.5) && m.sent < from_seconds(1.5);
-      if (in_window) EXPECT_TRUE(m.from != "b" && who != "b") << who << " got " << m.from << " at " << m.sent;
+      if (in_window) {
+        EXPECT_TRUE(m.from != "b" && who != "b") << who << " got " << m.from << " at " << m.sent;
+      }
     }
   }
 }
