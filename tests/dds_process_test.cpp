@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <set>
@@ -191,6 +192,9 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
                                 dir / "cam.log");
   // An operator's view of the allocation: the robots' task assignments on their topic.
   const pid_t watch = spawn_vigil({"events", "--assignments", "--session", s}, dir / "assignments.log");
+  // ... and of the robots' published states (their own estimates).
+  const pid_t states = spawn_vigil({"events", "--robots", "--session", s}, dir / "states.log");
+  ASSERT_GT(states, 0);
   const pid_t r1 = spawn_vigil(robot_args("robot1", "r1"), dir / "r1.log");
   pid_t r2 = spawn_vigil(robot_args("robot2", "r2"), dir / "r2.log");
   ASSERT_GT(watch, 0);
@@ -215,6 +219,14 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "server.log");
   kill(watch, SIGTERM);
   EXPECT_EQ(wait_exit(watch), 0) << slurp(dir / "assignments.log");
+  kill(states, SIGTERM);
+  EXPECT_EQ(wait_exit(states), 0) << slurp(dir / "states.log");
+  std::vector<nlohmann::json> published;
+  {
+    std::istringstream lines(slurp(dir / "states.log"));
+    for (std::string l; std::getline(lines, l);)
+      if (!l.empty() && l[0] == '{') published.push_back(nlohmann::json::parse(l));
+  }
   std::vector<nlohmann::json> announced;
   {
     std::istringstream lines(slurp(dir / "assignments.log"));
@@ -285,6 +297,21 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
     for (const auto& a : announced)
       seen = seen || (a["incident"].get<uint64_t>() == id && a["state"] == "keep" && a["robot"] == robot);
     EXPECT_TRUE(seen) << "incident " << id << " kept by " << robot << " on the topic:\n" << slurp(dir / "assignments.log");
+    // ... and its published state shows it on the task (responding or guarding).
+    bool on_task = false;
+    for (const auto& p : published) {
+      on_task = on_task || (p["robot"] == robot && p["task"].get<uint64_t>() == id &&
+                            (p["mode"] == "respond" || p["mode"] == "guard"));
+    }
+    EXPECT_TRUE(on_task) << robot << " published no state on incident " << id;
+  }
+  // Both robots publish, about every 0.5 s of simulated time, stamps rising per robot.
+  std::map<std::string, std::vector<int64_t>> stamps;
+  for (const auto& p : published) stamps[p["robot"].get<std::string>()].push_back(p["t_ns"].get<int64_t>());
+  ASSERT_EQ(stamps.size(), 2u) << slurp(dir / "states.log").substr(0, 2000);
+  for (const auto& [robot, ts] : stamps) {
+    EXPECT_GT(ts.size(), 100u) << robot;  // 140 s at 2 Hz, less robot2's 10 s away
+    EXPECT_TRUE(std::is_sorted(ts.begin(), ts.end())) << robot;
   }
   fs::remove_all(dir);
 }

@@ -438,6 +438,36 @@ TEST(Team, TaskAssignmentsRoundTripAndMalformedOnesAreRefused) {
   EXPECT_EQ(dds::from_assignment(reopen.msg, &n).error().key, "robot");
 }
 
+// A robot's published state: its own estimate, round trip, bad samples refused naming the field.
+TEST(Team, RobotStatesRoundTripAndMalformedOnesAreRefused) {
+  dds::RobotStateSample st;
+  st.robot = "robot2";
+  st.mode = "respond";
+  st.stamp_ns = from_seconds(12.5);
+  st.pose = {21.0, 3.3, 1.2};
+  st.linear_velocity = 0.9;
+  st.angular_velocity = -0.1;
+  st.task = 42;
+  dds::RobotStateOut out;
+  dds::to_message(st, &out);
+  auto back = dds::from_message(out.msg);
+  ASSERT_TRUE(back.ok()) << back.error().str();
+  EXPECT_EQ(back->robot, "robot2");
+  EXPECT_EQ(back->mode, "respond");
+  EXPECT_EQ(back->stamp_ns, st.stamp_ns);
+  EXPECT_DOUBLE_EQ(back->pose.yaw, 1.2);
+  EXPECT_DOUBLE_EQ(back->linear_velocity, 0.9);
+  EXPECT_EQ(back->task, 42u);
+  out.msg.pose.x = std::nan("");
+  EXPECT_EQ(dds::from_message(out.msg).error().key, "pose");
+  out.msg.pose.x = 21.0;
+  out.msg.linear_velocity = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(dds::from_message(out.msg).error().key, "linear_velocity");
+  out.msg.linear_velocity = 0;
+  out.msg.robot = const_cast<char*>("");
+  EXPECT_EQ(dds::from_message(out.msg).error().key, "robot");
+}
+
 // The whole loop in `vigil run`: cameras (truth sensor) -> rules -> DDS -> video server ->
 // DDS -> both robots' inboxes -> token passing over DDS (topic vigil_task_assignments) -> one
 // robot drives there and guards. The second run passes the team's messages on the in-process

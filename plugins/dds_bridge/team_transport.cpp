@@ -53,6 +53,72 @@ Result<TeamMessage> from_message(const vigil_msgs_TeamMessage& x, uint64_t* numb
   return m;
 }
 
+// ---- Robot state ----
+
+void to_message(const RobotStateSample& s, RobotStateOut* out) {
+  out->src = s;
+  vigil_msgs_RobotState& x = out->msg;
+  x = {};
+  x.robot = const_cast<char*>(out->src.robot.c_str());
+  x.stamp_ns = s.stamp_ns;
+  x.pose = {s.pose.x, s.pose.y, s.pose.yaw};
+  x.linear_velocity = s.linear_velocity;
+  x.angular_velocity = s.angular_velocity;
+  x.mode = const_cast<char*>(out->src.mode.c_str());
+  x.task = s.task;
+}
+
+Result<RobotStateSample> from_message(const vigil_msgs_RobotState& x) {
+  if (!x.robot || !*x.robot) return bad_input("", 0, "robot", "empty robot");
+  if (!std::isfinite(x.pose.x) || !std::isfinite(x.pose.y) || !std::isfinite(x.pose.z))
+    return bad_input("", 0, "pose", "not finite");
+  if (!std::isfinite(x.linear_velocity)) return bad_input("", 0, "linear_velocity", "not a finite number");
+  if (!std::isfinite(x.angular_velocity)) return bad_input("", 0, "angular_velocity", "not a finite number");
+  RobotStateSample s;
+  s.robot = x.robot;
+  s.mode = x.mode ? x.mode : "";
+  s.stamp_ns = x.stamp_ns;
+  s.pose = {x.pose.x, x.pose.y, x.pose.z};
+  s.linear_velocity = x.linear_velocity;
+  s.angular_velocity = x.angular_velocity;
+  s.task = x.task;
+  return s;
+}
+
+Result<std::unique_ptr<RobotStateWriter>> RobotStateWriter::create(const Participant& p, double period_s) {
+  std::unique_ptr<RobotStateWriter> w(new RobotStateWriter());
+  w->period_s_ = period_s;
+  auto wr = Writer::create(p, Topic::kRobotState);
+  if (!wr) return wr.error();
+  w->writer_ = std::move(*wr);
+  return w;
+}
+
+Status RobotStateWriter::publish(const World& world, const std::string& robot) {
+  const RobotReport* r = world.last_report(robot);
+  if (!r) return Status::Ok();
+  Last& last = last_[robot];
+  if (last.stamp >= 0 && to_seconds(r->stamp - last.stamp) < period_s_ - 1e-9) return Status::Ok();
+  RobotStateSample s;
+  s.robot = robot;
+  s.stamp_ns = r->stamp;
+  s.pose = r->pose;
+  s.mode = r->role.empty() ? r->mode : r->role;
+  s.task = r->task_id;
+  if (last.stamp >= 0 && r->stamp > last.stamp) {
+    const double dt = to_seconds(r->stamp - last.stamp);
+    s.linear_velocity = std::hypot(r->pose.x - last.pose.x, r->pose.y - last.pose.y) / dt;
+    s.angular_velocity = wrap_angle(r->pose.yaw - last.pose.yaw) / dt;
+  }
+  RobotStateOut out;
+  to_message(s, &out);
+  if (Status st = writer_->write_raw(&out.msg); !st) return st;
+  last.stamp = r->stamp;
+  last.pose = r->pose;
+  ++written_;
+  return Status::Ok();
+}
+
 // ---- Task assignments ----
 
 namespace {
@@ -177,6 +243,11 @@ Result<std::unique_ptr<DdsTeamBus>> DdsTeamBus::create(const std::vector<std::st
     auto ar = Reader::create(*n.participant, Topic::kTaskAssignments);
     if (!ar) return ar.error();
     n.assign_reader = std::move(*ar);
+    if (options.state_period_s > 0) {
+      auto sw = RobotStateWriter::create(*n.participant, options.state_period_s);
+      if (!sw) return sw.error();
+      n.state = std::move(*sw);
+    }
     bus->nodes_.push_back(std::move(n));
   }
   // Every writer matched with every reader before the first message.
@@ -194,6 +265,13 @@ Result<std::unique_ptr<DdsTeamBus>> DdsTeamBus::create(const std::vector<std::st
 DdsTeamBus::~DdsTeamBus() = default;
 
 Status DdsTeamBus::exchange(World& world) {
+  for (Node& n : nodes_) {
+    bool quiet = false;  // a robot whose radio failed publishes nothing
+    for (const auto& [r, from] : options_.silent_from) quiet = quiet || (r == n.robot && to_seconds(world.time()) >= from);
+    if (n.state && !quiet) {
+      if (Status s = n.state->publish(world, n.robot); !s) return s;
+    }
+  }
   std::vector<TeamMessage> sent = world.drain_sent();
   if (sent.empty()) return Status::Ok();
   std::map<std::string, size_t> index;
@@ -320,6 +398,11 @@ Result<std::unique_ptr<DdsTeamLink>> DdsTeamLink::create(const std::string& robo
   auto ar = Reader::create(*link->participant_, Topic::kTaskAssignments);
   if (!ar) return ar.error();
   link->assign_reader_ = std::move(*ar);
+  if (options.state_period_s > 0) {
+    auto sw = RobotStateWriter::create(*link->participant_, options.state_period_s);
+    if (!sw) return sw.error();
+    link->state_ = std::move(*sw);
+  }
   return link;
 }
 
@@ -340,6 +423,9 @@ Status DdsTeamLink::discard_received() {
 Status DdsTeamLink::exchange(World& world) {
   const double now = to_seconds(world.time());
   const bool silent = options_.silent_from >= 0 && now >= options_.silent_from;
+  if (state_ && !silent) {
+    if (Status s = state_->publish(world, robot_); !s) return s;
+  }
   for (const TeamMessage& m : world.drain_sent()) {
     if (m.from != robot_ || silent) continue;
     if (is_assignment(m)) {

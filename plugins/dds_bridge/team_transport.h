@@ -9,6 +9,7 @@
 // loopback with RELIABLE QoS). Malformed samples are counted and dropped.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,6 +28,45 @@ struct TeamMessageOut {
 void to_message(const TeamMessage& m, uint64_t number, TeamMessageOut* out);
 // Rejects an empty sender or kind and non-finite numbers; the error's key names the field.
 Result<TeamMessage> from_message(const vigil_msgs_TeamMessage& m, uint64_t* number);
+
+// A robot's published state (topic "vigil_robot_state"): its controller's own estimate, never
+// the simulator's truth. Velocities are the estimate's change since the robot's previous
+// sample; `mode` is the team role when it has one (patrol, respond, guard), else the
+// navigator's mode.
+struct RobotStateSample {
+  std::string robot, mode;
+  int64_t stamp_ns = 0;
+  Pose2 pose;
+  double linear_velocity = 0, angular_velocity = 0;
+  uint64_t task = 0;
+};
+// Owns the strings the message points into.
+struct RobotStateOut {
+  vigil_msgs_RobotState msg{};
+  RobotStateSample src;
+};
+void to_message(const RobotStateSample& s, RobotStateOut* out);
+// Rejects an empty robot and non-finite numbers; the error's key names the field.
+Result<RobotStateSample> from_message(const vigil_msgs_RobotState& m);
+
+// Writes each robot's state every `period_s` of simulated time from its latest report.
+class RobotStateWriter {
+ public:
+  static Result<std::unique_ptr<RobotStateWriter>> create(const Participant& p, double period_s);
+  Status publish(const World& world, const std::string& robot);
+  uint64_t written() const { return written_; }
+
+ private:
+  RobotStateWriter() = default;
+  std::unique_ptr<Writer> writer_;
+  double period_s_ = 0.5;
+  struct Last {
+    SimTime stamp = -1;
+    Pose2 pose;
+  };
+  std::map<std::string, Last> last_;
+  uint64_t written_ = 0;
+};
 
 // Allocation messages go on the task-assignment topic: the team controller's kinds "token",
 // "token_ack", "token_keep", "task_done" and "task_reopen".
@@ -51,6 +91,7 @@ class DdsTeamBus {
     double delivery_timeout_s = 10;
     // Robots whose messages are lost both ways from a time (scripted radio failures).
     std::vector<std::pair<std::string, double>> silent_from;
+    double state_period_s = 0.5;  // each robot's vigil_robot_state sample (0: none)
   };
   static Result<std::unique_ptr<DdsTeamBus>> create(const std::vector<std::string>& robots, const Options& options);
   ~DdsTeamBus();
@@ -70,6 +111,7 @@ class DdsTeamBus {
     std::unique_ptr<Reader> reader;
     std::unique_ptr<Writer> assign_writer;  // the task-assignment topic
     std::unique_ptr<Reader> assign_reader;
+    std::unique_ptr<RobotStateWriter> state;  // its robot's vigil_robot_state
     uint64_t number = 0, assign_number = 0;  // messages written so far, per topic
   };
   std::vector<Node> nodes_;
@@ -90,6 +132,7 @@ class DdsTeamLink {
     DomainOptions domain;        // session: the system's (partition vigil.<session>)
     double stale_after_s = 10.0;
     double silent_from = -1;     // s: from this time nothing leaves or reaches the robot (< 0: never)
+    double state_period_s = 0.5;  // the robot's vigil_robot_state sample (0: none)
   };
   static Result<std::unique_ptr<DdsTeamLink>> create(const std::string& robot, const Options& options);
   ~DdsTeamLink();
@@ -113,6 +156,7 @@ class DdsTeamLink {
   std::unique_ptr<Reader> reader_;
   std::unique_ptr<Writer> assign_writer_;
   std::unique_ptr<Reader> assign_reader_;
+  std::unique_ptr<RobotStateWriter> state_;
   uint64_t number_ = 0, assign_number_ = 0;
   uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, stale_ = 0, assignments_written_ = 0;
 };

@@ -355,11 +355,46 @@ void print_assignments(const dds::Participant& part, int count, double timeout) 
   if (count > 0 && n < count) throw Exit{1};
 }
 
+// `vigil events --robots`: every robot state sample as it arrives.
+void print_robot_states(const dds::Participant& part, int count, double timeout) {
+  auto reader = dds::Reader::create(part, dds::Topic::kRobotState);
+  if (!reader) throw Exit{report(reader.error())};
+  const auto t0 = std::chrono::steady_clock::now();
+  int n = 0;
+  while (!g_stop && (count <= 0 || n < count)) {
+    (*reader)->wait(0.1);
+    Status st = (*reader)->take_each([&](const void* sample, const dds_sample_info_t&) {
+      auto m = dds::from_message(*static_cast<const vigil_msgs_RobotState*>(sample));
+      if (!m) {
+        std::fprintf(stderr, "events: rejected robot state: %s\n", m.error().str().c_str());
+        return;
+      }
+      if (count > 0 && n >= count) return;
+      nlohmann::json j;
+      j["robot"] = m->robot;
+      j["t_ns"] = m->stamp_ns;
+      j["x"] = m->pose.x;
+      j["y"] = m->pose.y;
+      j["yaw"] = m->pose.yaw;
+      j["v"] = m->linear_velocity;
+      j["w"] = m->angular_velocity;
+      j["mode"] = m->mode;
+      j["task"] = m->task;
+      std::printf("%s\n", j.dump().c_str());
+      ++n;
+    });
+    if (!st) throw Exit{report(st.error())};
+    std::fflush(stdout);
+    if (timeout > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= timeout) break;
+  }
+  if (count > 0 && n < count) throw Exit{1};
+}
+
 void add_events(CLI::App& app) {
   struct Opts {
     int count = 0;
     double timeout = 0;
-    bool text = false, latency = false, assignments = false;
+    bool text = false, latency = false, assignments = false, robots = false;
     DdsOpts dds;
   };
   auto o = std::make_shared<Opts>();
@@ -367,6 +402,9 @@ void add_events(CLI::App& app) {
   cmd->add_flag("--assignments", o->assignments,
                 "print the robots' task assignments instead (topic vigil_task_assignments): who keeps which "
                 "incident, tasks done and reopened, as JSON lines; --count counts them");
+  cmd->add_flag("--robots", o->robots,
+                "print the robots' published states instead (topic vigil_robot_state, every 0.5 s of simulated "
+                "time: each robot's own pose estimate, velocities, mode, task), as JSON lines; --count counts them");
   cmd->add_option("--count", o->count, "exit after this many incidents (0: no limit)")->capture_default_str();
   cmd->add_option("--timeout", o->timeout, "exit after this many seconds (0: run until SIGINT/SIGTERM)")->capture_default_str();
   cmd->add_flag("--text", o->text, "print the chapter's string form (\"left bag X Y Z\") instead of JSON");
@@ -378,6 +416,10 @@ void add_events(CLI::App& app) {
     auto part = participant(o->dds);
     if (o->assignments) {
       print_assignments(*part, o->count, o->timeout);
+      return;
+    }
+    if (o->robots) {
+      print_robot_states(*part, o->count, o->timeout);
       return;
     }
     auto sub = dds::IncidentSubscriber::create(*part);
