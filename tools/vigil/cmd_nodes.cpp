@@ -310,43 +310,23 @@ int64_t monotonic_ns() {
   return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
-// `vigil events --assignments`: the allocation's decisions as the robots announce them. Tokens
-// and acknowledgements are the protocol's chatter and keepers repeat their announcement every
-// keep period, so a line is printed when a robot first keeps an incident, and for every task done
-// or reopened.
-void print_assignments(const dds::Participant& part, int count, double timeout) {
-  auto reader = dds::Reader::create(part, dds::Topic::kTaskAssignments);
+// Reads one topic until `count` lines are printed (0: no limit), `timeout` seconds pass (0: no
+// limit) or a signal comes; `line(sample)` gives the JSON line for a sample, or none to skip it.
+// Exit 1 when fewer than `count` came.
+template <class Line>
+void print_topic(const dds::Participant& part, dds::Topic topic, int count, double timeout, Line line) {
+  auto reader = dds::Reader::create(part, topic);
   if (!reader) throw Exit{report(reader.error())};
-  std::set<std::pair<uint64_t, std::string>> kept;
   const auto t0 = std::chrono::steady_clock::now();
   int n = 0;
   while (!g_stop && (count <= 0 || n < count)) {
     (*reader)->wait(0.1);
     Status st = (*reader)->take_each([&](const void* sample, const dds_sample_info_t&) {
-      uint64_t number = 0;
-      const auto& x = *static_cast<const vigil_msgs_TaskAssignment*>(sample);
-      auto m = dds::from_assignment(x, &number);
-      if (!m) {
-        std::fprintf(stderr, "events: rejected task assignment: %s\n", m.error().str().c_str());
-        return;
-      }
-      if (m->kind == "token" || m->kind == "token_ack") return;
-      if (m->kind == "token_keep" && !kept.insert({m->task, m->from}).second) return;
-      const char* state = m->kind == "token_keep" ? "keep" : m->kind == "task_done" ? "done" : "reopen";
-      nlohmann::json j;
-      j["incident"] = m->task;
-      j["state"] = state;
-      j["robot"] = std::string(x.robot);
-      j["from"] = m->from;
-      j["t_ns"] = m->sent;
-      if (m->kind == "token_keep") {
-        j["kind"] = std::string(x.task_kind);
-        j["target"] = {m->position.x, m->position.y};
-      }
-      if (count <= 0 || n < count) {
-        std::printf("%s\n", j.dump().c_str());
-        ++n;
-      }
+      if (count > 0 && n >= count) return;
+      std::optional<nlohmann::json> j = line(sample);
+      if (!j) return;
+      std::printf("%s\n", j->dump().c_str());
+      ++n;
     });
     if (!st) throw Exit{report(st.error())};
     std::fflush(stdout);
@@ -355,39 +335,56 @@ void print_assignments(const dds::Participant& part, int count, double timeout) 
   if (count > 0 && n < count) throw Exit{1};
 }
 
+// `vigil events --assignments`: the allocation's decisions as the robots announce them. Tokens
+// and acknowledgements are the protocol's chatter and keepers repeat their announcement every
+// keep period, so a line is printed when a robot first keeps an incident, and for every task done
+// or reopened.
+void print_assignments(const dds::Participant& part, int count, double timeout) {
+  std::set<std::pair<uint64_t, std::string>> kept;
+  print_topic(part, dds::Topic::kTaskAssignments, count, timeout, [&](const void* sample) -> std::optional<nlohmann::json> {
+    uint64_t number = 0;
+    const auto& x = *static_cast<const vigil_msgs_TaskAssignment*>(sample);
+    auto m = dds::from_assignment(x, &number);
+    if (!m) {
+      std::fprintf(stderr, "events: rejected task assignment: %s\n", m.error().str().c_str());
+      return std::nullopt;
+    }
+    if (m->kind == "token" || m->kind == "token_ack") return std::nullopt;
+    if (m->kind == "token_keep" && !kept.insert({m->task, m->from}).second) return std::nullopt;
+    nlohmann::json j;
+    j["incident"] = m->task;
+    j["state"] = m->kind == "token_keep" ? "keep" : m->kind == "task_done" ? "done" : "reopen";
+    j["robot"] = std::string(x.robot);
+    j["from"] = m->from;
+    j["t_ns"] = m->sent;
+    if (m->kind == "token_keep") {
+      j["kind"] = std::string(x.task_kind);
+      j["target"] = {m->position.x, m->position.y};
+    }
+    return j;
+  });
+}
+
 // `vigil events --robots`: every robot state sample as it arrives.
 void print_robot_states(const dds::Participant& part, int count, double timeout) {
-  auto reader = dds::Reader::create(part, dds::Topic::kRobotState);
-  if (!reader) throw Exit{report(reader.error())};
-  const auto t0 = std::chrono::steady_clock::now();
-  int n = 0;
-  while (!g_stop && (count <= 0 || n < count)) {
-    (*reader)->wait(0.1);
-    Status st = (*reader)->take_each([&](const void* sample, const dds_sample_info_t&) {
-      auto m = dds::from_message(*static_cast<const vigil_msgs_RobotState*>(sample));
-      if (!m) {
-        std::fprintf(stderr, "events: rejected robot state: %s\n", m.error().str().c_str());
-        return;
-      }
-      if (count > 0 && n >= count) return;
-      nlohmann::json j;
-      j["robot"] = m->robot;
-      j["t_ns"] = m->stamp_ns;
-      j["x"] = m->pose.x;
-      j["y"] = m->pose.y;
-      j["yaw"] = m->pose.yaw;
-      j["v"] = m->linear_velocity;
-      j["w"] = m->angular_velocity;
-      j["mode"] = m->mode;
-      j["task"] = m->task;
-      std::printf("%s\n", j.dump().c_str());
-      ++n;
-    });
-    if (!st) throw Exit{report(st.error())};
-    std::fflush(stdout);
-    if (timeout > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= timeout) break;
-  }
-  if (count > 0 && n < count) throw Exit{1};
+  print_topic(part, dds::Topic::kRobotState, count, timeout, [](const void* sample) -> std::optional<nlohmann::json> {
+    auto m = dds::from_message(*static_cast<const vigil_msgs_RobotState*>(sample));
+    if (!m) {
+      std::fprintf(stderr, "events: rejected robot state: %s\n", m.error().str().c_str());
+      return std::nullopt;
+    }
+    nlohmann::json j;
+    j["robot"] = m->robot;
+    j["t_ns"] = m->stamp_ns;
+    j["x"] = m->pose.x;
+    j["y"] = m->pose.y;
+    j["yaw"] = m->pose.yaw;
+    j["v"] = m->linear_velocity;
+    j["w"] = m->angular_velocity;
+    j["mode"] = m->mode;
+    j["task"] = m->task;
+    return j;
+  });
 }
 
 void add_events(CLI::App& app) {
