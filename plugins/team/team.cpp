@@ -119,7 +119,7 @@ class Team : public Plugin {
         {"region_share_cost", ParamType::kNumber, 0.1, 0.0, 10.0,
          "partition: what robots sharing a region's walk lose to meeting each other, as a share of the walk per extra robot (large: a region each where the graph has room)"},
         {"region_detours", ParamType::kBool, true, 0, 0,
-         "partition: a region shorter than min_region_walk is still a robot's own; on a leg too short to leave the last vertex behind the robot drives round a point off the graph (1.5 visit radii and more from both), so its visits count"},
+         "partition: a region shorter than min_region_walk is still a robot's own; on a leg too short to leave the last vertex behind the robot drives a loop off the graph (points 1.5 visit radii and more from both vertices) that passes straight through each vertex, so its visits count"},
     };
     p.insert(p.end(), own.begin(), own.end());
     return p;
@@ -786,6 +786,14 @@ class Team : public Plugin {
     return true;
   }
 
+  // A visited vertex counts again only once the robot has gone beyond this distance of it.
+  double rearm_radius() const { return 1.5 * visit_radius_; }
+
+  // On to the current target vertex, keeping speed through it.
+  void drive_to_target() {
+    nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+  }
+
   // Vertices passed (entered within the visit radius of the estimate), told to the team.
   void note_visits() {
     const Vec2 p = nav_.pose().position();
@@ -795,7 +803,7 @@ class Team : public Plugin {
         knowledge_.inside[i] = 1;
         knowledge_.visited(static_cast<int>(i), knowledge_.now);
         visited_now_.push_back(static_cast<int>(i));
-      } else if (knowledge_.inside[i] && d > 1.5 * visit_radius_) {
+      } else if (knowledge_.inside[i] && d > rearm_radius()) {
         knowledge_.inside[i] = 0;
       }
     }
@@ -842,7 +850,7 @@ class Team : public Plugin {
   // sight of the one before, with room round it. Empty when the leg is long enough or nothing
   // is free.
   std::vector<Vec2> detour_points(Vec2 a, Vec2 b) const {
-    const double rearm = 1.5 * visit_radius_ + 0.2;
+    const double rearm = rearm_radius() + 0.2;
     const double d = (b - a).norm();
     if (d - visit_radius_ >= rearm) return {};
     const Vec2 u = d > 1e-6 ? (b - a) * (1.0 / d) : Vec2{1.0, 0.0};
@@ -908,7 +916,7 @@ class Team : public Plugin {
         if (!detour_.empty()) {
           nav_.go_to(detour_.front(), 0, "detour to vertex " + std::to_string(target_), true);
         } else {
-          nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+          drive_to_target();
         }
       }
       return;
@@ -928,7 +936,7 @@ class Team : public Plugin {
       if (now_ < yield_until_ && !clear) return;
       yielding_ = false;
       detour_.clear();
-      nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      drive_to_target();
       return;
     }
     if (nav_.mode() == "waiting" && should_yield()) {
@@ -952,7 +960,7 @@ class Team : public Plugin {
       if (strategy_->hold(knowledge_) > 0.25 && now_ < hold_until_ && !mate_close()) return;
       holding_ = false;
       detour_.clear();
-      nav_.go_to(setup_->graph.vertex(target_).position, 0, "vertex " + std::to_string(target_), true);
+      drive_to_target();
       eta_ = knowledge_.now + setup_->travel(last_at_, target_) / setup_->speed;
       tell_visit(cmd, -1);
       return;
