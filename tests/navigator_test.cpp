@@ -163,6 +163,43 @@ TEST(Navigator, TasksComeThroughTheInboxAndReportsGoOut) {
   fs::remove_all(r.dir);
 }
 
+// DIAG_floor1, a room north of vertex 45, and a goal far to the west (the greedy run's
+// vertex 0): the way out runs down the room's west wall, and the path's first corner is 0.3 m from the wall the robot faces there. A forward check
+// that stopped the full safety distance short of walls stalled the robot at that corner for
+// ever (greedy patrol at theta 1, docs/PERFORMANCE.md); mapped walls now stop it only
+// `map_safety_distance` short, and the path turns before the wall.
+TEST(Navigator, LeavesARoomWhosePathTurnsCloseToTheWallAhead) {
+  VIGIL_REQUIRE_SHARED_DATA();
+  const fs::path map = test::shared_data() / "maps" / "DIAG_floor1" / "DIAG_floor1.yaml";
+  std::string text = R"(
+name: nav_room_exit
+map: MAP
+duration: 200
+seed: 1
+physics_rate_hz: 10
+places: {room: [95.0, 40.66]}
+robots:
+  - id: robot1
+    urdf: ../maps/robots/erratic.urdf
+    start: {place: room, yaw_deg: 130}
+    controller: navigator
+    max_speed: 1.0
+    params: {points: [10.4, 19.3], loop: false, speed: 1.0}
+    ranger: {range_max: 20, fov_deg: 270, samples: 271, noise_std: 0.01, rate_hz: 10}
+    odometry: {error: [0.01, 0.01, 0.1]}
+)";
+  text.replace(text.find("MAP"), 3, map.string());
+  auto sc = inline_scenario(text);
+  ASSERT_TRUE(sc.ok()) << sc.error().str();
+  NavRun r = run(*sc, "room_exit");
+  ASSERT_EQ(r.nav.robots.size(), 1u);
+  const auto& f = r.nav.robots[0];
+  EXPECT_EQ(f.goals_reached, 1) << (f.failures.empty() ? "" : f.failures[0]);
+  EXPECT_EQ(f.goals_failed, 0) << (f.failures.empty() ? "" : f.failures[0]);
+  EXPECT_EQ(r.nav.contacts_with_walls, 0);
+  fs::remove_all(r.dir);
+}
+
 TEST(Navigator, BadParametersNameTheKey) {
   auto sc = inline_scenario(with_points("26.0, 3.1") + "");
   ASSERT_TRUE(sc.ok());

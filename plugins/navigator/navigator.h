@@ -117,6 +117,7 @@ class Navigator : public Plugin {
         {"lookahead", ParamType::kNumber, 0.6, 0.1, 5.0, "pure pursuit look-ahead distance (m)"},
         {"turn_gain", ParamType::kNumber, 2.0, 0.1, 20.0, "angular velocity per radian of heading error"},
         {"safety_distance", ParamType::kNumber, 0.45, 0.05, 5.0, "stop for returns closer than this ahead of the body (m)"},
+        {"map_safety_distance", ParamType::kNumber, 0.1, 0.0, 5.0, "stop for returns on a mapped wall closer than this ahead of the body (m; the planned path keeps its clearance from walls)"},
         {"slow_distance", ParamType::kNumber, 1.2, 0.1, 10.0, "slow down for returns closer than this ahead (m)"},
         {"personal_space", ParamType::kNumber, 0.0, 0.0, 3.0, "stop for unmapped returns this close to the body in front of the axle (m; 0 = off)"},
         {"inflation_padding", ParamType::kNumber, 0.05, 0.0, 1.0, "added to the robot's radius for planning (m)"},
@@ -157,6 +158,7 @@ class Navigator : public Plugin {
     lookahead_ = p.number("lookahead");
     gain_ = p.number("turn_gain");
     safety_ = p.number("safety_distance");
+    map_safety_ = std::min(p.number("map_safety_distance"), safety_);
     slow_ = std::max(p.number("slow_distance"), safety_ + 0.05);
     personal_space_ = p.number("personal_space");
     replan_period_ = from_seconds(p.number("replan_period"));
@@ -599,9 +601,17 @@ class Navigator : public Plugin {
     if (to_goal < 1.0 && !pass_through_) speed *= std::max(0.3, to_goal);
     *v = std::abs(err) > 0.7 ? 0.0 : speed * std::cos(err);
     *w = std::clamp(gain_ * err, -ctx_.max_turn_rate, ctx_.max_turn_rate);
-    // Safety: slow for, and stop short of, anything in the swept corridor ahead.
-    const double ahead = clear_ahead(me);
-    double factor = std::clamp((ahead - safety_) / (slow_ - safety_), 0.0, 1.0);
+    // Safety: slow for, and stop short of, anything in the swept corridor ahead: `safety_distance`
+    // short of what the map does not hold (a person, a robot, a bag), `map_safety_distance`
+    // short of a mapped wall. The path keeps its clearance from walls, but pure pursuit heads
+    // for a carrot at a corner, and near a wall the wall can be the return straight ahead while
+    // the path turns before it (a corner 0.3 m from a door jamb): a full safety distance there
+    // stopped the robot for ever.
+    double ahead_unmapped = 1e9, ahead_mapped = 1e9;
+    clear_ahead(me, &ahead_mapped, &ahead_unmapped);
+    const double band = slow_ - safety_;
+    double factor = std::min(std::clamp((ahead_unmapped - safety_) / band, 0.0, 1.0),
+                             std::clamp((ahead_mapped - map_safety_) / band, 0.0, 1.0));
     // Personal space: something the map does not hold (a person stepping in from the side)
     // within `personal_space` of the body, anywhere in front of its axle, stops the robot too.
     if (personal_space_ > 0) {
@@ -639,17 +649,31 @@ class Navigator : public Plugin {
 
   // Distance from the robot's front to the nearest laser return in the corridor it sweeps.
   double clear_ahead(const RobotState& me) const {
+    double mapped = 1e9, unmapped = 1e9;
+    clear_ahead(me, &mapped, &unmapped);
+    return std::min(mapped, unmapped);
+  }
+
+  // The same, split: returns on a mapped wall (within 0.2 m of one, seen from the estimate, as
+  // LocalObstacles tells them apart) and the others.
+  void clear_ahead(const RobotState& me, double* mapped, double* unmapped) const {
     // The body's own width and 2 cm: paths keep inflation_padding (5 cm) more from walls than
     // the disc covering the body, so a wall beside a path that hugs it is not taken for
     // something in the way. A box-shaped body driving forward sweeps only its own half width
     // (a doorway one metre wide leaves an Erratic 10 cm to spare each side, the disc 3 cm).
     const double body = ctx_.body_half_width > 0 ? std::min(ctx_.body_half_width, ctx_.robot_radius) : ctx_.robot_radius;
     const double half_width = body + 0.02;
-    double best = 1e9;
+    const auto& map = planner_->inflated();
+    const double c = std::cos(pose_.yaw), s = std::sin(pose_.yaw);
+    *mapped = *unmapped = 1e9;
     for_each_return(me, [&](double x, double y) {
-      if (x > 0 && std::abs(y) <= half_width) best = std::min(best, x - ctx_.robot_radius);
+      if (x <= 0 || std::abs(y) > half_width) return;
+      const double d = x - ctx_.robot_radius;
+      if (d >= *mapped && d >= *unmapped) return;
+      const Vec2 q{pose_.x + c * x - s * y, pose_.y + s * x + c * y};
+      double* slot = map.clearance().at_point(map.grid(), q) <= 0.2 ? mapped : unmapped;
+      *slot = std::min(*slot, d);
     });
-    return best;
   }
 
   // Distance from the body's centre to the nearest laser return (infinite without a scan).
@@ -723,7 +747,7 @@ class Navigator : public Plugin {
   PluginContext ctx_;
   std::vector<Vec2> patrol_;
   bool loop_ = true;
-  double speed_ = 0.4, tolerance_ = 0.3, lookahead_ = 0.6, gain_ = 2.0, safety_ = 0.45, slow_ = 1.2;
+  double speed_ = 0.4, tolerance_ = 0.3, lookahead_ = 0.6, gain_ = 2.0, safety_ = 0.45, map_safety_ = 0.1, slow_ = 1.2;
   double personal_space_ = 0.0;
   double keep_right_ = 0.0;
   SimTime keep_right_until_ = -1;

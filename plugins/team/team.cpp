@@ -91,7 +91,7 @@ class Team : public Plugin {
         {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},
         {"theta", ParamType::kNumber, 4.0, 0.0, 1000.0, "greedy: seconds of idleness one second of travel is worth"},
         {"visit_radius", ParamType::kNumber, 0.5, 0.1, 10.0, "a vertex is visited within this distance (m)"},
-        {"reach_radius", ParamType::kNumber, 0.5, 0.05, 10.0,
+        {"reach_radius", ParamType::kNumber, 0.4, 0.05, 10.0,
          "a dead end's vertex (a leaf of the graph, where the robot turns round anyway) counts as reached within this distance of the estimate (m; at most visit_radius; other vertices: visit_radius): closer than the visit radius, so that the visit still counts with the estimate a little off"},
         {"discovery_time", ParamType::kNumber, 1.0, 0.0, 600.0, "listen this long for team mates before patrolling (s)"},
         {"hello_period", ParamType::kNumber, 0.2, 0.05, 60.0, "announce itself to the team this often (s)"},
@@ -1027,7 +1027,7 @@ class Team : public Plugin {
   planning::patrol::StrategyParams params_;
   std::unique_ptr<planning::patrol::PatrolStrategy> strategy_;
   std::vector<Vec2> detour_;  // a short region's leg: the points rounded before the vertex
-  double visit_radius_ = 0.5, reach_radius_ = 0.5, pass_offset_ = 0.45, pass_distance_ = 5.0;
+  double visit_radius_ = 0.5, reach_radius_ = 0.4, pass_offset_ = 0.45, pass_distance_ = 5.0;
   SimTime discovery_ = 0, hello_every_ = 0, member_timeout_ = 0;
 
   SimTime now_ = 0, next_hello_ = 0;

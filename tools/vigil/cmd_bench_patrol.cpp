@@ -126,8 +126,9 @@ void add_bench_patrol_command(CLI::App* bench) {
       std::printf("vigil bench patrol: %s, %zu vertices, shortest closed walk %.1f m, %.1f m/s, %.0f s simulated, "
                   "physics %.0f Hz, visits within %.1f m (true positions)\n",
                   mc.name.c_str(), graph->size(), tour.length, o->speed, o->seconds, o->physics_hz, o->visit_radius);
-      std::printf("%-10s %6s %9s %9s %9s %7s %9s %9s %9s %7s %7s %8s\n", "strategy", "robots", "ref s", "avg s", "worst s",
-                  "std s", "avg/ref", "worst/ref", "intervals", "interf", "failed", "wall s");
+      std::printf("%-10s %6s %9s %9s %9s %7s %9s %9s %9s %7s %7s %6s %6s %8s\n", "strategy", "robots", "ref s", "avg s",
+                  "worst s", "std s", "avg/ref", "worst/ref", "intervals", "interf", "failed", "walls", "robots", "wall s");
+      std::printf("(walls, robots: contacts of a robot's body with a wall, with another robot)\n");
       std::printf("(worst: the longest interval between visits, or the longest a vertex waited at the end if longer)\n");
       std::vector<Vec2> vertices;
       for (const auto& v : graph->vertices()) vertices.push_back(v.position);
@@ -265,9 +266,14 @@ void add_bench_patrol_command(CLI::App* bench) {
             cv::imwrite((fs::path(o->pictures) / (mc.name + "_" + strategy + "_" + std::to_string(n) + ".png")).string(), img);
           }
           const double ref = tour.length / (n * o->speed);
-          std::printf("%-10s %6d %9.1f %9.1f %9.1f %7.1f %9.2f %9.2f %9d %7d %7d %8.1f%s\n", strategy.c_str(), n, ref,
-                      st.average, st.worst, st.stddev, st.average / ref, st.worst / ref, st.intervals, interf.count(),
-                      failed, wall, st.unvisited ? "  (unvisited vertices!)" : "");
+          int wall_contacts = 0, robot_contacts = 0;
+          for (const ContactRecord& c : (*world)->contacts()) {
+            wall_contacts += c.other_kind == "wall";
+            robot_contacts += c.other_kind == "robot";
+          }
+          std::printf("%-10s %6d %9.1f %9.1f %9.1f %7.1f %9.2f %9.2f %9d %7d %7d %6d %6d %8.1f%s\n", strategy.c_str(), n,
+                      ref, st.average, st.worst, st.stddev, st.average / ref, st.worst / ref, st.intervals, interf.count(),
+                      failed, wall_contacts, robot_contacts, wall, st.unvisited ? "  (unvisited vertices!)" : "");
           if (wi.vertex >= 0) {
             std::printf("%-10s %6s worst: vertex %d, %.1f s to %.1f s (%s, then %s)\n", "", "", wi.vertex, wi.from, wi.to,
                         wi.before.c_str(), wi.after.c_str());
@@ -278,6 +284,7 @@ void add_bench_patrol_command(CLI::App* bench) {
                              {"longest_open_s", st.longest_open}, {"stddev_s", st.stddev},
                              {"median_s", st.median}, {"intervals", st.intervals}, {"visits", st.visits},
                              {"unvisited", st.unvisited}, {"interferences", interf.count()}, {"goals_failed", failed},
+                             {"wall_contacts", wall_contacts}, {"robot_contacts", robot_contacts},
                              {"tour_m", tour.length}, {"wall_seconds", wall},
                              {"worst_interval", {{"vertex", wi.vertex}, {"from_s", wi.from}, {"to_s", wi.to},
                                                  {"robot_before", wi.before}, {"robot_after", wi.after}}}});
