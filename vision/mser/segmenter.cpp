@@ -30,8 +30,6 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
   using Clock = std::chrono::steady_clock;
   auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   const auto t0 = Clock::now();
-  compute_texture_elements(bgr, &tex_);
-  const auto t1 = Clock::now();
   const size_t n = static_cast<size_t>(bgr.cols) * bgr.rows;
   blocked_.assign(n, 0);
   if (p_.use_lines) {
@@ -42,6 +40,10 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
     lines_.segments.clear();
     lines_.mask = cv::Mat::zeros(bgr.size(), CV_8U);
   }
+  const auto t1 = Clock::now();
+  // Elements centred on a line pixel merge nothing: left out of the order.
+  compute_texture_elements(bgr, &tex_, p_.use_lines ? blocked_.data() : nullptr);
+  const auto t15 = Clock::now();
   seed_of_.assign(n, -1);
   seeded_ = seed_groups_ = 0;
   if (p_.feed_forward && !prev_frame_.empty() && prev_frame_.size() == bgr.size()) make_seeds(bgr);
@@ -52,10 +54,11 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
   const auto t3 = Clock::now();
   expand(bgr, out);
   const auto t4 = Clock::now();
-  times_ = {ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4)};
+  times_ = {ms(t1, t15), ms(t0, t1), ms(t2, t3), ms(t3, t4), ms(t15, t2)};
   if (p_.feed_forward) {
     bgr.copyTo(prev_frame_);
     out->labels.copyTo(prev_labels_);
+    prev_regions_ = static_cast<int>(out->regions.size());
   }
   return true;
 }
@@ -68,47 +71,80 @@ void MserSegmenter::reset() {
 void MserSegmenter::make_seeds(const cv::Mat& bgr) {
   const int w = bgr.cols, h = bgr.rows;
   const size_t n = static_cast<size_t>(w) * h;
-  const cv::Vec3b* cur = bgr.ptr<cv::Vec3b>(0);
-  const cv::Vec3b* old = prev_frame_.ptr<cv::Vec3b>(0);
+  const uint8_t* cur = bgr.ptr<uint8_t>(0);
+  const uint8_t* old = prev_frame_.ptr<uint8_t>(0);
   const int32_t* lab = prev_labels_.ptr<int32_t>(0);
-  double mx = 0;
-  cv::minMaxLoc(prev_labels_, nullptr, &mx);
-  const size_t regions = static_cast<size_t>(mx) + 1;
-  // Per last-frame region: its size, its unchanged pixels, their gradient sum.
-  std::vector<int> size(regions, 0), unchanged(regions, 0);
-  std::vector<double> grad_sum(regions, 0);
-  std::vector<uint8_t> same(n, 0);
-  std::vector<uint16_t> grad(n, 0);
+  const size_t regions = static_cast<size_t>(prev_regions_);
+  // Per last-frame region: its size, its unchanged pixels, their gradient sum, its colour sum.
+  struct Acc {
+    int32_t size = 0, unchanged = 0;
+    int64_t grad = 0;
+    int64_t colour[3] = {0, 0, 0};
+  };
+  std::vector<Acc> acc(regions);
+  same_.resize(n);
+  grad_.resize(n);
   const int tol = p_.unchanged_within;
+  const uint16_t* tv = tex_.value.data();
   for (size_t i = 0; i < n; ++i) {
-    const int r = lab[i];
-    ++size[r];
-    // A pixel's gradient: the larger of its two texture elements (this frame's).
-    const uint16_t th = tex_.value[2 * i], tv = tex_.value[2 * i + 1];
-    grad[i] = static_cast<uint16_t>(std::max(th < 256 ? th : 0, tv < 256 ? tv : 0));
-    grad_sum[r] += grad[i];
-    if (std::abs(cur[i][0] - old[i][0]) <= tol && std::abs(cur[i][1] - old[i][1]) <= tol &&
-        std::abs(cur[i][2] - old[i][2]) <= tol) {
-      same[i] = 1;
-      ++unchanged[r];
-    }
+    // A pixel's gradient: the larger of its two texture elements (this frame's; 256: none).
+    const uint16_t th = tv[2 * i], tt = tv[2 * i + 1];
+    grad_[i] = std::max<uint16_t>(th < 256 ? th : 0, tt < 256 ? tt : 0);
+    const uint8_t* c = cur + 3 * i;
+    const uint8_t* o = old + 3 * i;
+    same_[i] = std::abs(c[0] - o[0]) <= tol && std::abs(c[1] - o[1]) <= tol && std::abs(c[2] - o[2]) <= tol;
   }
-  // The last frame's region colours.
-  std::vector<cv::Vec3d> colour(regions, cv::Vec3d(0, 0, 0));
-  for (size_t i = 0; i < n; ++i) colour[lab[i]] += cv::Vec3d(old[i][0], old[i][1], old[i][2]);
-  for (size_t r = 0; r < regions; ++r) colour[r] /= std::max(1, size[r]);
+  // Runs of one label along a row are summed first (most pixels lie inside large regions).
+  for (size_t i = 0; i < n;) {
+    const int32_t r = lab[i];
+    int32_t size = 0, unchanged = 0;
+    int64_t grad = 0, c0 = 0, c1 = 0, c2 = 0;
+    const size_t row_end = (i / w + 1) * static_cast<size_t>(w);
+    for (; i < row_end && lab[i] == r; ++i) {
+      ++size;
+      unchanged += same_[i];
+      grad += grad_[i];
+      c0 += old[3 * i];
+      c1 += old[3 * i + 1];
+      c2 += old[3 * i + 2];
+    }
+    Acc& a = acc[r];
+    a.size += size;
+    a.unchanged += unchanged;
+    a.grad += grad;
+    a.colour[0] += c0;
+    a.colour[1] += c1;
+    a.colour[2] += c2;
+  }
+  // Per region: whether its majority is unchanged, its mean gradient and mean colour.
+  struct Gate {
+    bool open = false;
+    double mean_grad = 0;
+    double colour[3] = {0, 0, 0};
+  };
+  std::vector<Gate> gate(regions);
+  for (size_t r = 0; r < regions; ++r) {
+    const Acc& a = acc[r];
+    if (a.size == 0) continue;
+    gate[r].open = 2 * a.unchanged > a.size;
+    gate[r].mean_grad = static_cast<double>(a.grad) / a.size;
+    for (int k = 0; k < 3; ++k) gate[r].colour[k] = static_cast<double>(a.colour[k]) / a.size;
+  }
   const double colour2 = p_.seed_colour * p_.seed_colour;
-  std::vector<int> groups(regions, 0);
+  std::vector<uint8_t> grouped(regions, 0);
   for (size_t i = 0; i < n; ++i) {
     const int r = lab[i];
-    if (!same[i] || blocked_[i] || 2 * unchanged[r] <= size[r]) continue;
-    const double mean = grad_sum[r] / std::max(1, size[r]);
-    const double d0 = cur[i][0] - colour[r][0], d1 = cur[i][1] - colour[r][1], d2 = cur[i][2] - colour[r][2];
+    if (!same_[i] || blocked_[i] || !gate[r].open) continue;
+    const Gate& g = gate[r];
+    const double d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
     if (d0 * d0 + d1 * d1 + d2 * d2 > colour2) continue;
-    if (grad[i] < mean || grad[i] < p_.low_gradient) {
+    if (grad_[i] < g.mean_grad || grad_[i] < p_.low_gradient) {
       seed_of_[i] = r;
       ++seeded_;
-      if (groups[r]++ == 0) ++seed_groups_;
+      if (!grouped[r]) {
+        grouped[r] = 1;
+        ++seed_groups_;
+      }
     }
   }
 }
@@ -232,8 +268,7 @@ void MserSegmenter::build_tree(Segmentation* out) {
     touched_.clear();
     for (uint32_t k = tex_.level_start[v]; k < tex_.level_start[v + 1]; ++k) {
       const uint32_t e = tex_.order[k];
-      const int32_t c = static_cast<int32_t>(e >> 1);
-      if (blocked[c]) continue;
+      const int32_t c = static_cast<int32_t>(e >> 1);  // never a line pixel (left out of the order)
       const int32_t step = (e & 1) ? w : 1;
       const int32_t a = c - step, b = c + step;
       // A unit inside one feed-forward group is one region already.
@@ -354,23 +389,57 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     }
     lab[i] = region_of_root[r];
   }
-  // Colour sums so far, for the pixels left (line pixels, specks).
-  const cv::Vec3b* px = bgr.ptr<cv::Vec3b>(0);
-  std::vector<cv::Vec3d> sum(out->regions.size(), cv::Vec3d(0, 0, 0));
-  std::vector<int> cnt(out->regions.size(), 0);
-  for (size_t i = 0; i < n; ++i) {
-    if (lab[i] < 0) continue;
-    sum[lab[i]] += cv::Vec3d(px[i][0], px[i][1], px[i][2]);
-    ++cnt[lab[i]];
-  }
   if (out->regions.empty()) {
     // Nothing but lines and specks: one region.
     out->regions.push_back(Region{});
-    sum.push_back(cv::Vec3d(0, 0, 0));
-    cnt.push_back(0);
     for (size_t i = 0; i < n; ++i) lab[i] = 0;
   }
-  // Unassigned pixels join the 4-neighbour region of the nearest mean colour, sweep by sweep.
+  // Region statistics (size, position moments, colour sums, box), summed exactly in integers
+  // over runs of one label along a row; the pixels assigned below are added one by one.
+  const uint8_t* px = bgr.ptr<uint8_t>(0);
+  const size_t m = out->regions.size();
+  sums_.assign(m, RegionSums{});
+  auto tri = [](int64_t k) { return k * (k + 1) / 2; };               // 0 + 1 + .. + k
+  auto sq = [](int64_t k) { return k * (k + 1) * (2 * k + 1) / 6; };  // 0^2 + .. + k^2
+  for (int y = 0; y < h; ++y) {
+    const int32_t* row = lab + static_cast<size_t>(y) * w;
+    const uint8_t* col = px + 3 * static_cast<size_t>(y) * w;
+    for (int x0 = 0; x0 < w;) {
+      const int32_t r = row[x0];
+      int x1 = x0;
+      int64_t c0 = 0, c1 = 0, c2 = 0;
+      for (; x1 < w && row[x1] == r; ++x1) {
+        c0 += col[3 * x1];
+        c1 += col[3 * x1 + 1];
+        c2 += col[3 * x1 + 2];
+      }
+      if (r >= 0) {
+        RegionSums& a = sums_[r];
+        const int64_t k = x1 - x0, sx = tri(x1 - 1) - tri(x0 - 1);
+        a.n += k;
+        a.sx += sx;
+        a.sy += k * y;
+        a.sxx += sq(x1 - 1) - (x0 > 0 ? sq(x0 - 1) : 0);
+        a.syy += k * y * y;
+        a.sxy += sx * y;
+        a.c[0] += c0;
+        a.c[1] += c1;
+        a.c[2] += c2;
+        a.minx = std::min(a.minx, x0);
+        a.maxx = std::max(a.maxx, x1 - 1);
+        a.miny = std::min(a.miny, y);
+        a.maxy = std::max(a.maxy, y);
+      }
+      x0 = x1;
+    }
+  }
+  // Unassigned pixels (line pixels, specks) join the 4-neighbour region of the nearest mean
+  // colour (the regions' means before any of them joined), sweep by sweep.
+  std::vector<cv::Vec3d> mean(m);
+  for (size_t r = 0; r < m; ++r) {
+    const RegionSums& a = sums_[r];
+    if (a.n > 0) mean[r] = cv::Vec3d(static_cast<double>(a.c[0]), static_cast<double>(a.c[1]), static_cast<double>(a.c[2])) * (1.0 / static_cast<double>(a.n));
+  }
   std::vector<int32_t> pending;
   for (size_t i = 0; i < n; ++i)
     if (lab[i] < 0) pending.push_back(static_cast<int32_t>(i));
@@ -387,9 +456,10 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       for (int32_t q : nb) {
         if (q < 0 || lab[q] < 0) continue;
         const int r = lab[q];
-        const cv::Vec3d m = cnt[r] ? sum[r] / cnt[r] : cv::Vec3d(px[q][0], px[q][1], px[q][2]);
-        const cv::Vec3d d = m - cv::Vec3d(px[i][0], px[i][1], px[i][2]);
-        const double dd = d.dot(d);
+        const double m0 = sums_[r].n ? mean[r][0] : px[3 * q], m1 = sums_[r].n ? mean[r][1] : px[3 * q + 1],
+                     m2 = sums_[r].n ? mean[r][2] : px[3 * q + 2];
+        const double d0 = m0 - px[3 * i], d1 = m1 - px[3 * i + 1], d2 = m2 - px[3 * i + 2];
+        const double dd = d0 * d0 + d1 * d1 + d2 * d2;
         if (dd < best_d) {
           best_d = dd;
           best = r;
@@ -402,10 +472,25 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       }
     }
     if (assign.empty()) {  // cannot happen with at least one region; guard anyway
-      for (int32_t i : still) lab[i] = 0;
-      break;
+      for (int32_t i : still) assign.push_back({i, 0});
+      still.clear();
     }
-    for (const auto& [i, r] : assign) lab[i] = r;
+    for (const auto& [i, r] : assign) {
+      lab[i] = r;
+      RegionSums& a = sums_[r];
+      const int x = i % w, y = i / w;
+      ++a.n;
+      a.sx += x;
+      a.sy += y;
+      a.sxx += static_cast<int64_t>(x) * x;
+      a.syy += static_cast<int64_t>(y) * y;
+      a.sxy += static_cast<int64_t>(x) * y;
+      for (int k = 0; k < 3; ++k) a.c[k] += px[3 * i + k];
+      a.minx = std::min(a.minx, x);
+      a.maxx = std::max(a.maxx, x);
+      a.miny = std::min(a.miny, y);
+      a.maxy = std::max(a.maxy, y);
+    }
     pending.swap(still);
   }
   // Feed-forward links: the last frame's region most of a region's seeds came from.
@@ -426,40 +511,20 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       out->regions[r].seeds = total;
     }
   }
-  // Region statistics.
-  const size_t m = out->regions.size();
-  std::vector<double> sx(m, 0), sy(m, 0), sxx(m, 0), syy(m, 0), sxy(m, 0);
-  std::vector<cv::Vec3d> col(m, cv::Vec3d(0, 0, 0));
-  std::vector<int> minx(m, w), miny(m, h), maxx(m, -1), maxy(m, -1), size(m, 0);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      const int r = lab[i];
-      ++size[r];
-      sx[r] += x;
-      sy[r] += y;
-      sxx[r] += static_cast<double>(x) * x;
-      syy[r] += static_cast<double>(y) * y;
-      sxy[r] += static_cast<double>(x) * y;
-      col[r] += cv::Vec3d(px[i][0], px[i][1], px[i][2]);
-      minx[r] = std::min(minx[r], x);
-      maxx[r] = std::max(maxx[r], x);
-      miny[r] = std::min(miny[r], y);
-      maxy[r] = std::max(maxy[r], y);
-    }
-  }
   for (size_t r = 0; r < m; ++r) {
     Region& reg = out->regions[r];
-    reg.size = size[r];
-    if (size[r] == 0) continue;
-    const double k = 1.0 / size[r];
-    const double mx = sx[r] * k, my = sy[r] * k;
+    const RegionSums& a = sums_[r];
+    reg.size = static_cast<int>(a.n);
+    if (a.n == 0) continue;
+    const double k = 1.0 / static_cast<double>(a.n);
+    const double mx = static_cast<double>(a.sx) * k, my = static_cast<double>(a.sy) * k;
     reg.centroid = cv::Point2f(static_cast<float>(mx), static_cast<float>(my));
-    reg.cxx = static_cast<float>(sxx[r] * k - mx * mx);
-    reg.cyy = static_cast<float>(syy[r] * k - my * my);
-    reg.cxy = static_cast<float>(sxy[r] * k - mx * my);
-    reg.mean = cv::Vec3f(static_cast<float>(col[r][0] * k), static_cast<float>(col[r][1] * k), static_cast<float>(col[r][2] * k));
-    reg.bbox = cv::Rect(minx[r], miny[r], maxx[r] - minx[r] + 1, maxy[r] - miny[r] + 1);
+    reg.cxx = static_cast<float>(static_cast<double>(a.sxx) * k - mx * mx);
+    reg.cyy = static_cast<float>(static_cast<double>(a.syy) * k - my * my);
+    reg.cxy = static_cast<float>(static_cast<double>(a.sxy) * k - mx * my);
+    reg.mean = cv::Vec3f(static_cast<float>(static_cast<double>(a.c[0]) * k), static_cast<float>(static_cast<double>(a.c[1]) * k),
+                         static_cast<float>(static_cast<double>(a.c[2]) * k));
+    reg.bbox = cv::Rect(a.minx, a.miny, a.maxx - a.minx + 1, a.maxy - a.miny + 1);
   }
 }
 

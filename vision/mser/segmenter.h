@@ -105,7 +105,7 @@ class MserSegmenter {
   const SegmenterParams& params() const { return p_; }
   // Wall time of each phase of the last segment() call (ms).
   struct PhaseTimes {
-    double texture = 0, lines = 0, tree = 0, expansion = 0;
+    double texture = 0, lines = 0, tree = 0, expansion = 0, seeds = 0;  // seeds: feed-forward
   };
   const PhaseTimes& phase_times() const { return times_; }
 
@@ -132,10 +132,18 @@ class MserSegmenter {
   std::vector<int32_t> next_, node_next_, touched_;
   std::vector<std::pair<int32_t, int32_t>> merges_;  // pass 1's unions (roots), in order
   // Pass 2.
+  struct RegionSums {
+    int64_t n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0, c[3] = {0, 0, 0};
+    int minx = 1 << 30, miny = 1 << 30, maxx = -1, maxy = -1;
+  };
+  std::vector<RegionSums> sums_;
   std::vector<int32_t> parent2_, leaf_of_, root_, region_of_root_, comp_size_;
   // Feed-forward: the last frame and its labels; this frame's seeds (donor region per pixel).
   cv::Mat prev_frame_, prev_labels_;
+  int prev_regions_ = 0;
   std::vector<int32_t> seed_of_;
+  std::vector<uint8_t> same_;
+  std::vector<uint16_t> grad_;
   int seeded_ = 0, seed_groups_ = 0;
   void make_seeds(const cv::Mat& bgr);
 };

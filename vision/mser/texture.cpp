@@ -39,55 +39,96 @@ int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b) {
   return value_from_sum(sa + sb);
 }
 
-void compute_texture_elements(const cv::Mat& bgr, TextureElements* out) {
+void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const uint8_t* skip) {
   if (bgr.type() != CV_8UC3) throw std::invalid_argument("compute_texture_elements: expected a CV_8UC3 image");
   const int w = bgr.cols, h = bgr.rows;
   out->width = w;
   out->height = h;
   const size_t n = static_cast<size_t>(w) * h;
-  out->value.assign(2 * n, 256);
-  std::array<uint32_t, 257> count{};
-  // Per channel byte: (x - y)^2 / (x + y) as d^2 / max(s, 1) (0 when both are 0), in float
-  // arrays the compiler vectorises; then summed per pixel over its two neighbours.
+  out->value.resize(2 * n);
+  // Per channel byte: (x - y)^2 / (x + y) (0 when both are 0), in float
+  // arrays the compiler vectorises; a term between two pixels serves both (the horizontal one
+  // between x - 1 and x is x's left term and x - 1's right one; the vertical one between rows y
+  // and y + 1 is row y's lower term and row y + 1's upper one). Sums, square roots and the
+  // 16-bit values are vectorised loops too; the counts for the sort come last.
   const int m = 3 * w;
-  std::vector<float> left(m), upper(m), lower(m);
+  std::vector<float> left(m, 0.0f), upper(m, 0.0f), lower(m, 0.0f), sum(w, 0.0f);
+  std::vector<uint16_t> hv(w), vv(w);
+  // Four partial counts, so runs of equal values do not wait on one counter.
+  std::array<std::array<uint32_t, 257>, 4> part{};
+  // (c + a + 1e-30 is c + a exactly when c + a >= 1, and makes 0 / 0 a 0 without a branch.)
+  auto term = [](float c, float a) {
+    const float d = c - a;
+    return d * d / (c + a + 1e-30f);
+  };
+  auto to_values = [w](const float* __restrict s, uint16_t* __restrict v) {
+    for (int x = 0; x < w; ++x) {
+      // round(sqrt(512 s)) clamped to 255, as value_from_sum.
+      const float t = std::min(std::sqrt(512.0f * s[x]), 255.0f);
+      v[x] = static_cast<uint16_t>(static_cast<int>(t + 0.5f));
+    }
+  };
   for (int y = 0; y < h; ++y) {
     const uint8_t* __restrict row = bgr.ptr<uint8_t>(y);
     float* __restrict lf = left.data();
     float* __restrict uf = upper.data();
     float* __restrict df = lower.data();
     // left[i]: the term between byte i and byte i - 3 (the pixel to the left).
-    for (int i = 3; i < m; ++i) {
-      const float c = row[i], a = row[i - 3];
-      const float d = c - a;
-      lf[i] = d * d / std::max(c + a, 1.0f);
+    for (int i = 3; i < m; ++i) lf[i] = term(row[i], row[i - 3]);
+    // The last row's lower terms are this row's upper ones.
+    std::swap(upper, lower);
+    uf = upper.data();
+    df = lower.data();
+    if (y + 1 < h) {
+      const uint8_t* __restrict down = bgr.ptr<uint8_t>(y + 1);
+      for (int i = 0; i < m; ++i) df[i] = term(row[i], down[i]);
     }
     const bool vert = y > 0 && y + 1 < h;
+    float* __restrict sm = sum.data();
+    // Horizontal: the a side (left[3x..3x+2]) then the b side (left[3x+3..3x+5]), summed in the
+    // order texture_value uses, so both round alike.
+    for (int x = 1; x + 1 < w; ++x) {
+      const int i = 3 * x;
+      sm[x] = (lf[i] + lf[i + 1] + lf[i + 2]) + (lf[i + 3] + lf[i + 4] + lf[i + 5]);
+    }
+    to_values(sm, hv.data());
+    hv[0] = hv[w - 1] = 256;
     if (vert) {
-      const uint8_t* __restrict up = bgr.ptr<uint8_t>(y - 1);
-      const uint8_t* __restrict down = bgr.ptr<uint8_t>(y + 1);
-      for (int i = 0; i < m; ++i) {
-        const float c = row[i], a = up[i], b = down[i];
-        const float d1 = c - a, d2 = c - b;
-        uf[i] = d1 * d1 / std::max(c + a, 1.0f);
-        df[i] = d2 * d2 / std::max(c + b, 1.0f);
+      for (int x = 0; x < w; ++x) {
+        const int i = 3 * x;
+        sm[x] = (uf[i] + uf[i + 1] + uf[i + 2]) + (df[i] + df[i + 1] + df[i + 2]);
+      }
+      to_values(sm, vv.data());
+    } else {
+      std::fill(vv.begin(), vv.end(), uint16_t{256});
+    }
+    uint16_t* __restrict v = out->value.data() + 2 * static_cast<size_t>(y) * w;
+    for (int x = 0; x < w; ++x) {
+      v[2 * x] = hv[x];
+      v[2 * x + 1] = vv[x];
+    }
+    if (skip) {
+      // Skipped pixels' elements keep their values but stay out of the order.
+      const uint8_t* __restrict sk = skip + static_cast<size_t>(y) * w;
+      for (int x = 0; x < w; ++x) {
+        hv[x] = sk[x] ? uint16_t{256} : hv[x];
+        vv[x] = sk[x] ? uint16_t{256} : vv[x];
       }
     }
-    uint16_t* v = out->value.data() + 2 * static_cast<size_t>(y) * w;
-    for (int x = 0; x < w; ++x) {
-      const int i = 3 * x;
-      if (x > 0 && x + 1 < w) {
-        const float sum = (left[i] + left[i + 1] + left[i + 2]) + (left[i + 3] + left[i + 4] + left[i + 5]);
-        v[2 * x] = static_cast<uint16_t>(value_from_sum(sum));
-      }
-      if (vert) {
-        const float sum = (upper[i] + upper[i + 1] + upper[i + 2]) + (lower[i] + lower[i + 1] + lower[i + 2]);
-        v[2 * x + 1] = static_cast<uint16_t>(value_from_sum(sum));
-      }
-      ++count[v[2 * x]];
-      ++count[v[2 * x + 1]];
+    int x = 0;
+    for (; x + 1 < w; x += 2) {
+      ++part[0][hv[x]];
+      ++part[1][vv[x]];
+      ++part[2][hv[x + 1]];
+      ++part[3][vv[x + 1]];
+    }
+    for (; x < w; ++x) {
+      ++part[0][hv[x]];
+      ++part[1][vv[x]];
     }
   }
+  std::array<uint32_t, 257> count{};
+  for (int k = 0; k < 257; ++k) count[k] = part[0][k] + part[1][k] + part[2][k] + part[3][k];
   // Counting sort of the elements that have a unit (value <= 255).
   out->level_start.assign(257, 0);
   uint32_t acc = 0;
@@ -102,7 +143,7 @@ void compute_texture_elements(const cv::Mat& bgr, TextureElements* out) {
   const uint32_t total = static_cast<uint32_t>(2 * n);
   for (uint32_t e = 0; e < total; ++e) {
     const uint16_t val = out->value[e];
-    if (val < 256) out->order[next[val]++] = e;
+    if (val < 256 && !(skip && skip[e >> 1])) out->order[next[val]++] = e;
   }
 }
 

@@ -32,6 +32,8 @@ struct TextureElements {
   std::vector<uint32_t> level_start;
 };
 
-void compute_texture_elements(const cv::Mat& bgr, TextureElements* out);
+// `skip` (optional, one byte per pixel, non-zero: skip): those pixels' elements get their values
+// but stay out of the order (the segmenter's line pixels, which no element may merge).
+void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const uint8_t* skip = nullptr);
 
 }  // namespace vigil::vision::mser
