@@ -1,7 +1,10 @@
 // Line detection for the colour MSER segmenter (chapter 10.3.1, "Line Detection"): Canny edges
-// turned into straight line segments (edge chains traced and split where they bend), whose
-// pixels region growth may not cross. A low-gradient gap in a strong border is bridged by
-// Canny's hysteresis, so two same-coloured regions with a faint border stay apart.
+// traced into chains (each edge pixel once, from the chain ends first) and split into straight
+// line segments where they bend (Douglas-Peucker). Region growth may not cross the chains: the
+// mask holds every pixel of an edge component with at least `min_length` pixels, so a doubled
+// edge or a short spur at a junction leaves no gap. A low-gradient gap in a strong border is
+// bridged by Canny's hysteresis, so two same-coloured regions with a faint border stay apart.
+// The segments (end points, angles) serve line-corner tracking.
 #pragma once
 
 #include <vector>
@@ -19,12 +22,12 @@ struct LineSegment {
 struct LineParams {
   double canny_low = 40, canny_high = 120;  // on the grey image (OpenCV's Canny, L1 gradient, 3x3)
   double max_deviation = 1.5;               // px: a chain is split where it leaves its chord by more
-  double min_length = 6;                    // px: shorter segments are dropped
+  double min_length = 6;                    // px: shorter segments are dropped; so are edge components of fewer pixels
 };
 
 struct Lines {
   std::vector<LineSegment> segments;
-  cv::Mat mask;  // CV_8U, 255 on the segments' pixels (what growth may not cross)
+  cv::Mat mask;  // CV_8U, 255 on the line pixels (what growth may not cross)
 };
 
 void detect_lines(const cv::Mat& bgr, const LineParams& params, Lines* out);

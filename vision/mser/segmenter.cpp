@@ -7,17 +7,6 @@
 #include <string>
 
 namespace vigil::vision::mser {
-namespace {
-
-inline int32_t find(std::vector<int32_t>& parent, int32_t x) {
-  while (parent[x] != x) {
-    parent[x] = parent[parent[x]];
-    x = parent[x];
-  }
-  return x;
-}
-
-}  // namespace
 
 float Region::width() const { return 2.0f * std::sqrt(std::max(0.0f, cxx)); }
 float Region::height() const { return 2.0f * std::sqrt(std::max(0.0f, cyy)); }
@@ -152,36 +141,44 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
 void MserSegmenter::build_tree(Segmentation* out) {
   const int w = tex_.width, h = tex_.height;
   const size_t n = static_cast<size_t>(w) * h;
-  // One record per pixel, a region's state at its root: what a union touches shares a line.
-  px_.resize(n);
-  parent_.resize(n);
+  // parent_[x] >= 0: x is not a root, its parent; -1: x is a root of one pixel (its state is
+  // implicit); -(k + 2): x is the root of a region whose state is record k. Records are made when
+  // a pixel first swallows another, one after another in memory, so the regions growing at a
+  // level lie close together and a frame writes state only for regions that exist.
+  parent_.assign(n, -1);
   next_.assign(n, -1);
-  for (size_t i = 0; i < n; ++i) {
-    PxState& q = px_[i];
-    parent_[i] = q.head = q.tail = static_cast<int32_t>(i);
-    q.size = q.prev_size = 1;
-    q.growth = q.growth_before = 0;
-    q.hlevel = -2;
-    q.touched_at = -1;
-    q.top_head = q.top_tail = q.pend_head = q.pend_tail = -1;
-  }
+  recs_.clear();
+  recs_.reserve(n);  // never reallocated below: references into it stay valid
   node_next_.clear();
   merges_.clear();
   int32_t* parent = parent_.data();
   auto root = [parent](int32_t x) {
-    while (parent[x] != x) {
-      parent[x] = parent[parent[x]];
-      x = parent[x];
+    for (;;) {
+      const int32_t p = parent[x];
+      if (p < 0) return x;
+      const int32_t pp = parent[p];
+      if (pp < 0) return p;
+      parent[x] = pp;  // path halving
+      x = pp;
     }
-    return x;
   };
-  auto append_top = [&](PxState& r, int32_t h2, int32_t t2) {
+  auto record_of = [&](int32_t x) -> Rec& {
+    if (parent[x] == -1) {
+      Rec r;
+      r.root = r.head = r.tail = x;
+      recs_.push_back(r);
+      parent[x] = -static_cast<int32_t>(recs_.size()) - 1;
+    }
+    return recs_[static_cast<size_t>(-parent[x] - 2)];
+  };
+  auto size_of = [&](int32_t x) { return parent[x] == -1 ? 1 : recs_[static_cast<size_t>(-parent[x] - 2)].size; };
+  auto append_top = [&](Rec& r, int32_t h2, int32_t t2) {
     if (h2 < 0) return;
     if (r.top_head < 0) r.top_head = h2;
     else node_next_[r.top_tail] = h2;
     r.top_tail = t2;
   };
-  auto append_pend = [&](PxState& r, int32_t h2, int32_t t2) {
+  auto append_pend = [&](Rec& r, int32_t h2, int32_t t2) {
     if (h2 < 0) return;
     if (r.pend_head < 0) r.pend_head = h2;
     else node_next_[r.pend_tail] = h2;
@@ -192,11 +189,11 @@ void MserSegmenter::build_tree(Segmentation* out) {
   // Growth that "declines or is stable" before the acceleration: a level without growth, or a
   // declining growth that adds under an eighth of the region (a speck that doubles every level
   // while it shrinks its growth is still forming, not stable).
-  auto steady = [&](const PxState& r, bool last_level) {
+  auto steady = [&](const Rec& r, bool last_level) {
     if (!last_level) return true;
     return r.growth <= r.growth_before && 8 * r.growth < r.prev_size;
   };
-  auto store = [&](PxState& r, int size, int node_level) {
+  auto store = [&](Rec& r, int size, int node_level) {
     const int id = static_cast<int>(out->tree.size());
     MserNode node;
     node.level = node_level;
@@ -210,31 +207,39 @@ void MserSegmenter::build_tree(Segmentation* out) {
     node_next_.push_back(-1);
     r.top_head = r.top_tail = id;
   };
-  // Unites two roots.
+  // Unites two roots: the smaller region goes into the larger (on a tie, b into a).
   auto unite = [&](int32_t a, int32_t b) {
-    if (px_[a].size < px_[b].size) std::swap(a, b);
-    PxState& A = px_[a];
-    PxState& B = px_[b];
-    // b ends here, swallowed by a larger region: for b that is accelerated growth, so b as it
-    // was before this level is an MSER if it had been growing steadily (or not at all).
-    if (B.prev_size >= min_size) {
-      const bool last_level = B.hlevel == level - 1;
-      const int g_prev = last_level ? B.growth : 0;
-      const int g = A.size + B.size - B.prev_size;
-      if (steady(B, last_level) && g - g_prev > min_size) store(B, B.prev_size, last_level ? level - 1 : B.hlevel);
+    if (size_of(a) < size_of(b)) std::swap(a, b);
+    Rec& A = record_of(a);
+    if (parent[b] == -1) {
+      // A single pixel (never an MSER: MIN-SIZE is above 1) joins.
+      A.size += 1;
+      next_[A.tail] = b;
+      A.tail = b;
+    } else {
+      Rec& B = recs_[static_cast<size_t>(-parent[b] - 2)];
+      // b ends here, swallowed by a larger region: for b that is accelerated growth, so b as it
+      // was before this level is an MSER if it had been growing steadily (or not at all).
+      if (B.prev_size >= min_size) {
+        const bool last_level = B.hlevel == level - 1;
+        const int g_prev = last_level ? B.growth : 0;
+        const int g = A.size + B.size - B.prev_size;
+        if (steady(B, last_level) && g - g_prev > min_size) store(B, B.prev_size, last_level ? level - 1 : B.hlevel);
+      }
+      A.size += B.size;
+      next_[A.tail] = B.head;
+      A.tail = B.tail;
+      // b's maximal MSERs now lie inside a, reached this level.
+      append_pend(A, B.top_head, B.top_tail);
+      append_pend(A, B.pend_head, B.pend_tail);
+      B.top_head = B.pend_head = -1;
+      B.root = -1;
     }
     parent[b] = a;
     merges_.push_back({a, b});
-    A.size += B.size;
-    next_[A.tail] = B.head;
-    A.tail = B.tail;
-    // b's maximal MSERs now lie inside a, reached this level.
-    append_pend(A, B.top_head, B.top_tail);
-    append_pend(A, B.pend_head, B.pend_tail);
-    B.top_head = B.pend_head = -1;
     if (A.touched_at != level) {
       A.touched_at = level;
-      touched_.push_back(a);
+      touched_.push_back(static_cast<int32_t>(&A - recs_.data()));
     }
     return a;
   };
@@ -252,21 +257,34 @@ void MserSegmenter::build_tree(Segmentation* out) {
         continue;
       }
       const int32_t a = first[g], b = static_cast<int32_t>(i);
-      PxState& A = px_[a];
-      PxState& B = px_[b];
+      Rec& A = record_of(a);
       parent[b] = a;
       merges_.push_back({a, b});
-      A.size += B.size;
-      next_[A.tail] = B.head;
-      A.tail = B.tail;
+      A.size += 1;
+      next_[A.tail] = b;
+      A.tail = b;
     }
     for (int32_t a : first)
-      if (a >= 0) px_[a].prev_size = px_[a].size;
+      if (a >= 0 && parent[a] != -1) {
+        Rec& A = record_of(a);
+        A.prev_size = A.size;
+      }
   }
+  constexpr uint32_t kAhead = 12;
+  const uint32_t order_end = static_cast<uint32_t>(tex_.order.size());
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
-    for (uint32_t k = tex_.level_start[v]; k < tex_.level_start[v + 1]; ++k) {
+    const uint32_t k_end = tex_.level_start[v + 1];
+    for (uint32_t k = tex_.level_start[v]; k < k_end; ++k) {
+      // The elements come in value order, so their pixels are scattered over the image: fetch
+      // a later element's parent links ahead (the loop waits on memory, not on arithmetic).
+      if (k + kAhead < order_end) {
+        const uint32_t f = tex_.order[k + kAhead];
+        const int32_t fc = static_cast<int32_t>(f >> 1), fs = (f & 1) ? w : 1;
+        __builtin_prefetch(parent + fc - fs);
+        __builtin_prefetch(parent + fc + fs);
+      }
       const uint32_t e = tex_.order[k];
       const int32_t c = static_cast<int32_t>(e >> 1);  // never a line pixel (left out of the order)
       const int32_t step = (e & 1) ? w : 1;
@@ -289,8 +307,8 @@ void MserSegmenter::build_tree(Segmentation* out) {
     }
     // Rates of growth of the regions that grew.
     for (int32_t ri : touched_) {
-      PxState& r = px_[ri];
-      if (parent[ri] != ri) continue;
+      Rec& r = recs_[static_cast<size_t>(ri)];
+      if (r.root < 0) continue;  // swallowed later this level
       const int g = r.size - r.prev_size;
       const bool last_level = r.hlevel == v - 1;
       const int g_prev = last_level ? r.growth : 0;
@@ -305,10 +323,11 @@ void MserSegmenter::build_tree(Segmentation* out) {
       r.hlevel = static_cast<int16_t>(v);
     }
   }
-  // The regions left standing are the roots (line pixels stay out: they are not grown).
+  // The regions left standing are the roots, in pixel order (line pixels and pixels nothing
+  // reached stay single: expansion assigns them).
   for (size_t i = 0; i < n; ++i) {
-    PxState& r = px_[i];
-    if (parent[i] != static_cast<int32_t>(i) || blocked[i]) continue;
+    if (parent[i] >= -1) continue;
+    Rec& r = recs_[static_cast<size_t>(-parent[i] - 2)];
     append_top(r, r.pend_head, r.pend_tail);
     r.pend_head = -1;
     if (r.size < min_size && r.top_head < 0) continue;  // a speck: expansion assigns it
@@ -329,37 +348,35 @@ std::vector<int> MserSegmenter::node_pixels(const Segmentation& s, int node) con
 void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
   const int w = tex_.width, h = tex_.height;
   const size_t n = static_cast<size_t>(w) * h;
-  parent2_.resize(n);
+  // leaf_of_: the leaf each pixel lies in (-1: none); at a component's root, its leaf.
   leaf_of_.assign(n, -1);
-  for (size_t i = 0; i < n; ++i) parent2_[i] = static_cast<int32_t>(i);
-  // Each leaf's pixels, one component.
   for (size_t li = 0; li < out->leaves.size(); ++li) {
     const MserNode& node = out->tree[out->leaves[li]];
-    const int32_t first = node.head;
-    leaf_of_[first] = static_cast<int32_t>(li);
-    int32_t p = next_[first];
-    for (int k = 1; k < node.size && p >= 0; ++k, p = next_[p]) parent2_[p] = first;
+    int32_t p = node.head;
+    for (int k = 0; k < node.size && p >= 0; ++k, p = next_[p]) leaf_of_[p] = static_cast<int32_t>(li);
   }
-  auto unite = [&](int32_t a, int32_t b) {
-    a = find(parent2_, a);
-    b = find(parent2_, b);
-    if (a == b) return;
-    const int32_t la = leaf_of_[a], lb = leaf_of_[b];
-    if (la >= 0 && lb >= 0) return;  // leaves never merge
-    if (la < 0) {
-      parent2_[a] = b;
-    } else {
-      parent2_[b] = a;
-    }
-  };
   // The first pass's merges, replayed in their order: the same growth in the same order of
   // texture values, refused where two leaves would meet (so a part swallowed there by a region
   // holding two leaves joins the leaf whose merges reach it first). Elements that merged
   // nothing there are left out: a third of the work of a second pass over the elements.
-  for (const auto& [a, b] : merges_) unite(a, b);
-  // Every pixel's component, once.
+  // Each merge (a, b) joined two roots of the first pass, b under a. The replay keeps that
+  // direction, so a and b are roots here too when their merge comes (a refused merge only leaves
+  // b a root for good): no root is searched for. A leaf is a first-pass region as it was at
+  // some level, so every merge that formed it comes before any that reaches outside it.
+  const size_t nm = merges_.size();
+  accepted_.resize(nm);
+  for (size_t k = 0; k < nm; ++k) {
+    const auto [a, b] = merges_[k];
+    const int32_t la = leaf_of_[a], lb = leaf_of_[b];
+    const bool ok = la < 0 || lb < 0 || la == lb;  // leaves never merge
+    accepted_[k] = ok;
+    if (ok && la < 0) leaf_of_[a] = lb;
+  }
+  // Every pixel's component: a merge's b takes a's final root, latest merges first.
   root_.resize(n);
-  for (size_t i = 0; i < n; ++i) root_[i] = find(parent2_, static_cast<int32_t>(i));
+  for (size_t i = 0; i < n; ++i) root_[i] = static_cast<int32_t>(i);
+  for (size_t k = nm; k-- > 0;)
+    if (accepted_[k]) root_[merges_[k].second] = root_[merges_[k].first];
   // Components to regions: leaves first (in leaf order), then parts no leaf reached.
   out->labels.create(h, w, CV_32S);
   int32_t* lab = out->labels.ptr<int32_t>(0);

@@ -118,17 +118,18 @@ class MserSegmenter {
   TextureElements tex_;
   Lines lines_;
   std::vector<uint8_t> blocked_;  // line pixels
-  // Union-find, pass 1: the parent links (hot: read for every element), and a region's state
-  // at its root pixel (read where regions meet).
+  // Union-find, pass 1: the parent links (hot: read for every element; a root's entry names its
+  // region's record), and the regions' records.
   std::vector<int32_t> parent_;
-  struct PxState {
-    int32_t size, head, tail;                // its size; its pixel list
-    int32_t prev_size, growth, growth_before;  // sizes and growths at the last levels it grew
-    int16_t hlevel, touched_at;              // the last level it grew; touched this level
-    int32_t top_head, top_tail;              // its maximal MSERs (a list through node_next_)
-    int32_t pend_head, pend_tail;            // ... those it swallowed this level
+  struct Rec {
+    int32_t root = -1;                                   // its root pixel (-1: swallowed)
+    int32_t size = 1, head = -1, tail = -1;              // its size; its pixel list
+    int32_t prev_size = 1, growth = 0, growth_before = 0;  // sizes and growths at the last levels it grew
+    int16_t hlevel = -2, touched_at = -1;                // the last level it grew; touched this level
+    int32_t top_head = -1, top_tail = -1;                // its maximal MSERs (a list through node_next_)
+    int32_t pend_head = -1, pend_tail = -1;              // ... those it swallowed this level
   };
-  std::vector<PxState> px_;
+  std::vector<Rec> recs_;
   std::vector<int32_t> next_, node_next_, touched_;
   std::vector<std::pair<int32_t, int32_t>> merges_;  // pass 1's unions (roots), in order
   // Pass 2.
@@ -137,7 +138,8 @@ class MserSegmenter {
     int minx = 1 << 30, miny = 1 << 30, maxx = -1, maxy = -1;
   };
   std::vector<RegionSums> sums_;
-  std::vector<int32_t> parent2_, leaf_of_, root_, region_of_root_, comp_size_;
+  std::vector<int32_t> leaf_of_, root_, region_of_root_, comp_size_;
+  std::vector<uint8_t> accepted_;
   // Feed-forward: the last frame and its labels; this frame's seeds (donor region per pixel).
   cv::Mat prev_frame_, prev_labels_;
   int prev_regions_ = 0;
