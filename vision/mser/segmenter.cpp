@@ -30,12 +30,15 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
     lines_.mask = cv::Mat::zeros(bgr.size(), CV_8U);
   }
   const auto t1 = Clock::now();
-  // Elements centred on a line pixel merge nothing: left out of the order.
-  compute_texture_elements(bgr, &tex_, p_.use_lines ? blocked_.data() : nullptr);
+  compute_texture_values(bgr, &tex_);
   const auto t15 = Clock::now();
   seed_of_.assign(n, -1);
   seeded_ = seed_groups_ = 0;
   if (p_.feed_forward && !prev_frame_.empty() && prev_frame_.size() == bgr.size()) make_seeds(bgr);
+  const auto t16 = Clock::now();
+  // The order: elements centred on a line pixel merge nothing, and a unit wholly inside one
+  // feed-forward group is one region already: both left out.
+  order_texture_elements(&tex_, blocked_.data(), seeded_ > 0 ? seed_of_.data() : nullptr);
   const auto t2 = Clock::now();
   out->tree.clear();
   out->leaves.clear();
@@ -43,7 +46,7 @@ bool MserSegmenter::segment(const cv::Mat& bgr, Segmentation* out, std::string* 
   const auto t3 = Clock::now();
   expand(bgr, out);
   const auto t4 = Clock::now();
-  times_ = {ms(t1, t15), ms(t0, t1), ms(t2, t3), ms(t3, t4), ms(t15, t2)};
+  times_ = {ms(t1, t15) + ms(t16, t2), ms(t0, t1), ms(t2, t3), ms(t3, t4), ms(t15, t16)};
   if (p_.feed_forward) {
     bgr.copyTo(prev_frame_);
     out->labels.copyTo(prev_labels_);
@@ -243,8 +246,6 @@ void MserSegmenter::build_tree(Segmentation* out) {
     }
     return a;
   };
-  const uint8_t* blocked = blocked_.data();
-  const int32_t* seed = seed_of_.data();
   // Feed-forward seeds: each last-frame region's seeds one group from the start (no growth
   // history: they evolve from there), however scattered.
   if (seeded_ > 0) {
@@ -272,6 +273,8 @@ void MserSegmenter::build_tree(Segmentation* out) {
   }
   constexpr uint32_t kAhead = 12;
   const uint32_t order_end = static_cast<uint32_t>(tex_.order.size());
+  const uint32_t* order = tex_.order.data();
+  const uint8_t* sides = tex_.sides.data();
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
@@ -280,28 +283,25 @@ void MserSegmenter::build_tree(Segmentation* out) {
       // The elements come in value order, so their pixels are scattered over the image: fetch
       // a later element's parent links ahead (the loop waits on memory, not on arithmetic).
       if (k + kAhead < order_end) {
-        const uint32_t f = tex_.order[k + kAhead];
+        const uint32_t f = order[k + kAhead];
         const int32_t fc = static_cast<int32_t>(f >> 1), fs = (f & 1) ? w : 1;
         __builtin_prefetch(parent + fc - fs);
         __builtin_prefetch(parent + fc + fs);
       }
-      const uint32_t e = tex_.order[k];
-      const int32_t c = static_cast<int32_t>(e >> 1);  // never a line pixel (left out of the order)
+      // Never a line pixel's element, nor a unit inside one feed-forward group (left out of the
+      // order); `sides` says which outer pixel of the unit is on a line.
+      const uint32_t e = order[k];
+      const int32_t c = static_cast<int32_t>(e >> 1);
       const int32_t step = (e & 1) ? w : 1;
-      const int32_t a = c - step, b = c + step;
-      // A unit inside one feed-forward group is one region already.
-      if (seeded_ > 0) {
-        const int32_t g = seed[c];
-        if (g >= 0 && seed[a] == g && seed[b] == g) continue;
-      }
+      const uint8_t side = sides[k];
       // Most units lie inside one region already: compare roots before uniting.
       int32_t rc = root(c);
-      if (!blocked[a]) {
-        const int32_t ra = root(a);
+      if (!(side & 1)) {
+        const int32_t ra = root(c - step);
         if (ra != rc) rc = unite(rc, ra);
       }
-      if (!blocked[b]) {
-        const int32_t rb = root(b);
+      if (!(side & 2)) {
+        const int32_t rb = root(c + step);
         if (rb != rc) unite(rc, rb);
       }
     }

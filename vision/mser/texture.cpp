@@ -39,8 +39,8 @@ int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b) {
   return value_from_sum(sa + sb);
 }
 
-void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const uint8_t* skip) {
-  if (bgr.type() != CV_8UC3) throw std::invalid_argument("compute_texture_elements: expected a CV_8UC3 image");
+void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
+  if (bgr.type() != CV_8UC3) throw std::invalid_argument("compute_texture_values: expected a CV_8UC3 image");
   const int w = bgr.cols, h = bgr.rows;
   out->width = w;
   out->height = h;
@@ -54,8 +54,6 @@ void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const ui
   const int m = 3 * w;
   std::vector<float> left(m, 0.0f), upper(m, 0.0f), lower(m, 0.0f), sum(w, 0.0f);
   std::vector<uint16_t> hv(w), vv(w);
-  // Four partial counts, so runs of equal values do not wait on one counter.
-  std::array<std::array<uint32_t, 257>, 4> part{};
   // (c + a + 1e-30 is c + a exactly when c + a >= 1, and makes 0 / 0 a 0 without a branch.)
   auto term = [](float c, float a) {
     const float d = c - a;
@@ -107,44 +105,66 @@ void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const ui
       v[2 * x] = hv[x];
       v[2 * x + 1] = vv[x];
     }
-    if (skip) {
-      // Skipped pixels' elements keep their values but stay out of the order.
-      const uint8_t* __restrict sk = skip + static_cast<size_t>(y) * w;
-      for (int x = 0; x < w; ++x) {
-        hv[x] = sk[x] ? uint16_t{256} : hv[x];
-        vv[x] = sk[x] ? uint16_t{256} : vv[x];
+  }
+}
+
+void order_texture_elements(TextureElements* t, const uint8_t* skip, const int32_t* group) {
+  const int32_t w = t->width;
+  const size_t n = static_cast<size_t>(t->width) * t->height;
+  // Each element's key: its value, or 256 where it stays out. Per pixel, both of its elements
+  // (a value below 256 means the unit exists, so its outer pixels are inside the image).
+  t->key.resize(2 * n);
+  uint16_t* __restrict key = t->key.data();
+  const uint16_t* __restrict value = t->value.data();
+  // Four partial counts, so runs of equal keys do not wait on one counter.
+  std::array<std::array<uint32_t, 257>, 4> part{};
+  for (size_t c = 0; c < n; ++c) {
+    uint16_t kh = value[2 * c], kv = value[2 * c + 1];
+    if (skip && skip[c]) kh = kv = 256;
+    if (group) {
+      const int32_t g = group[c];
+      if (g >= 0) {
+        if (kh < 256 && group[c - 1] == g && group[c + 1] == g) kh = 256;
+        if (kv < 256 && group[c - w] == g && group[c + w] == g) kv = 256;
       }
     }
-    int x = 0;
-    for (; x + 1 < w; x += 2) {
-      ++part[0][hv[x]];
-      ++part[1][vv[x]];
-      ++part[2][hv[x + 1]];
-      ++part[3][vv[x + 1]];
-    }
-    for (; x < w; ++x) {
-      ++part[0][hv[x]];
-      ++part[1][vv[x]];
-    }
+    key[2 * c] = kh;
+    key[2 * c + 1] = kv;
+    ++part[(c & 1) * 2][kh];
+    ++part[(c & 1) * 2 + 1][kv];
   }
-  std::array<uint32_t, 257> count{};
-  for (int k = 0; k < 257; ++k) count[k] = part[0][k] + part[1][k] + part[2][k] + part[3][k];
-  // Counting sort of the elements that have a unit (value <= 255).
-  out->level_start.assign(257, 0);
+  // Counting sort of the elements left in (key <= 255), stable: by element within a value.
+  t->level_start.assign(257, 0);
   uint32_t acc = 0;
   for (int k = 0; k < 256; ++k) {
-    out->level_start[k] = acc;
-    acc += count[k];
+    t->level_start[k] = acc;
+    acc += part[0][k] + part[1][k] + part[2][k] + part[3][k];
   }
-  out->level_start[256] = acc;
-  out->order.resize(acc);
+  t->level_start[256] = acc;
+  t->order.resize(acc);
+  t->sides.resize(skip ? acc : 0);
+  uint32_t* __restrict order = t->order.data();
+  uint8_t* __restrict sides = t->sides.data();
   std::array<uint32_t, 256> next{};
-  for (int k = 0; k < 256; ++k) next[k] = out->level_start[k];
-  const uint32_t total = static_cast<uint32_t>(2 * n);
-  for (uint32_t e = 0; e < total; ++e) {
-    const uint16_t val = out->value[e];
-    if (val < 256 && !(skip && skip[e >> 1])) out->order[next[val]++] = e;
+  for (int k = 0; k < 256; ++k) next[k] = t->level_start[k];
+  for (size_t c = 0; c < n; ++c) {
+    const uint16_t kh = key[2 * c], kv = key[2 * c + 1];
+    if (kh < 256) {
+      const uint32_t at = next[kh]++;
+      order[at] = static_cast<uint32_t>(2 * c);
+      if (skip) sides[at] = static_cast<uint8_t>((skip[c - 1] ? 1 : 0) | (skip[c + 1] ? 2 : 0));
+    }
+    if (kv < 256) {
+      const uint32_t at = next[kv]++;
+      order[at] = static_cast<uint32_t>(2 * c + 1);
+      if (skip) sides[at] = static_cast<uint8_t>((skip[c - w] ? 1 : 0) | (skip[c + w] ? 2 : 0));
+    }
   }
+}
+
+void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const uint8_t* skip) {
+  compute_texture_values(bgr, out);
+  order_texture_elements(out, skip, nullptr);
 }
 
 }  // namespace vigil::vision::mser

@@ -30,10 +30,24 @@ struct TextureElements {
   std::vector<uint32_t> order;
   // order[level_start[v] .. level_start[v + 1]) hold the elements of value v (v = 0..255).
   std::vector<uint32_t> level_start;
+  // With a skip mask: per order entry, which of its unit's two outer pixels is skipped (bit 0:
+  // the one before, left or above; bit 1: the one after). Empty without one.
+  std::vector<uint8_t> sides;
+  std::vector<uint16_t> key;  // scratch of the sort
 };
 
-// `skip` (optional, one byte per pixel, non-zero: skip): those pixels' elements get their values
-// but stay out of the order (the segmenter's line pixels, which no element may merge).
+// The values alone (no order).
+void compute_texture_values(const cv::Mat& bgr, TextureElements* out);
+
+// The counting sort of the elements with a unit, leaving out those whose pixel is skipped
+// (`skip`, one byte per pixel, non-zero: skip) and those whose unit lies wholly in one group
+// (`group`, per pixel, -1: none; the segmenter's feed-forward seeds, one region already).
+
+void order_texture_elements(TextureElements* t, const uint8_t* skip = nullptr, const int32_t* group = nullptr);
+
+// Values and order. `skip` (optional, one byte per pixel, non-zero: skip): those pixels'
+// elements get their values but stay out of the order (the segmenter's line pixels, which no
+// element may merge).
 void compute_texture_elements(const cv::Mat& bgr, TextureElements* out, const uint8_t* skip = nullptr);
 
 }  // namespace vigil::vision::mser
