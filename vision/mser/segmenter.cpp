@@ -76,15 +76,21 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
   std::vector<Acc> acc(regions);
   same_.resize(n);
   grad_.resize(n);
+  unchanged_bytes_.resize(3 * n);
   const int tol = p_.unchanged_within;
-  const uint16_t* tv = tex_.value.data();
-  for (size_t i = 0; i < n; ++i) {
-    // A pixel's gradient: the larger of its two texture elements (this frame's; 256: none).
-    const uint16_t th = tv[2 * i], tt = tv[2 * i + 1];
-    grad_[i] = std::max<uint16_t>(th < 256 ? th : 0, tt < 256 ? tt : 0);
-    const uint8_t* c = cur + 3 * i;
-    const uint8_t* o = old + 3 * i;
-    same_[i] = std::abs(c[0] - o[0]) <= tol && std::abs(c[1] - o[1]) <= tol && std::abs(c[2] - o[2]) <= tol;
+  {
+    // Per byte (a vectorised loop), then per pixel: every channel within `tol`.
+    uint8_t* __restrict u = unchanged_bytes_.data();
+    for (size_t j = 0; j < 3 * n; ++j) u[j] = static_cast<uint8_t>(std::abs(static_cast<int>(cur[j]) - static_cast<int>(old[j])) <= tol);
+    const uint16_t* __restrict tv = tex_.value.data();
+    uint8_t* __restrict same = same_.data();
+    uint16_t* __restrict grad = grad_.data();
+    for (size_t i = 0; i < n; ++i) {
+      same[i] = u[3 * i] & u[3 * i + 1] & u[3 * i + 2];
+      // A pixel's gradient: the larger of its two texture elements (this frame's; 256: none).
+      const uint16_t th = tv[2 * i], tt = tv[2 * i + 1];
+      grad[i] = std::max<uint16_t>(th < 256 ? th : 0, tt < 256 ? tt : 0);
+    }
   }
   // Runs of one label along a row are summed first (most pixels lie inside large regions).
   for (size_t i = 0; i < n;) {
@@ -108,37 +114,36 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
     a.colour[1] += c1;
     a.colour[2] += c2;
   }
-  // Per region: whether its majority is unchanged, its mean gradient and mean colour.
+  // Per region: its mean colour, and the gradient a seed must stay under: its mean gradient
+  // (grad < sum / size is grad < ceil(sum / size) for whole numbers) or `low_gradient`,
+  // whichever is higher; 0 where its majority changed (nothing seeds).
   struct Gate {
-    bool open = false;
-    double mean_grad = 0;
-    double colour[3] = {0, 0, 0};
+    float colour[3] = {0, 0, 0};
+    int32_t below = 0;
   };
   std::vector<Gate> gate(regions);
   for (size_t r = 0; r < regions; ++r) {
     const Acc& a = acc[r];
-    if (a.size == 0) continue;
-    gate[r].open = 2 * a.unchanged > a.size;
-    gate[r].mean_grad = static_cast<double>(a.grad) / a.size;
-    for (int k = 0; k < 3; ++k) gate[r].colour[k] = static_cast<double>(a.colour[k]) / a.size;
+    if (a.size == 0 || 2 * a.unchanged <= a.size) continue;
+    gate[r].below = std::max<int32_t>(static_cast<int32_t>((a.grad + a.size - 1) / a.size), p_.low_gradient);
+    for (int k = 0; k < 3; ++k) gate[r].colour[k] = static_cast<float>(static_cast<double>(a.colour[k]) / a.size);
   }
-  const double colour2 = p_.seed_colour * p_.seed_colour;
-  std::vector<uint8_t> grouped(regions, 0);
+  const float colour2 = static_cast<float>(p_.seed_colour * p_.seed_colour);
+  // Every pixel tested without branches: unchanged, not on a line, gradient low, colour close.
+  const uint8_t* __restrict same = same_.data();
+  const uint8_t* __restrict blocked = blocked_.data();
+  const uint16_t* __restrict grad = grad_.data();
+  int32_t* __restrict seed = seed_of_.data();
+  int seeded = 0;
   for (size_t i = 0; i < n; ++i) {
-    const int r = lab[i];
-    if (!same_[i] || blocked_[i] || !gate[r].open) continue;
+    const int32_t r = lab[i];
     const Gate& g = gate[r];
-    const double d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
-    if (d0 * d0 + d1 * d1 + d2 * d2 > colour2) continue;
-    if (grad_[i] < g.mean_grad || grad_[i] < p_.low_gradient) {
-      seed_of_[i] = r;
-      ++seeded_;
-      if (!grouped[r]) {
-        grouped[r] = 1;
-        ++seed_groups_;
-      }
-    }
+    const float d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
+    const bool ok = same[i] & (blocked[i] ^ 1) & (grad[i] < g.below) & (d0 * d0 + d1 * d1 + d2 * d2 <= colour2);
+    seed[i] = ok ? r : -1;
+    seeded += ok;
   }
+  seeded_ = seeded;  // seed_groups_ is counted where the groups are formed (build_tree)
 }
 
 void MserSegmenter::build_tree(Segmentation* out) {
@@ -265,6 +270,7 @@ void MserSegmenter::build_tree(Segmentation* out) {
       next_[A.tail] = b;
       A.tail = b;
     }
+    for (int32_t a : first) seed_groups_ += a >= 0;
     for (int32_t a : first)
       if (a >= 0 && parent[a] != -1) {
         Rec& A = record_of(a);
@@ -274,7 +280,6 @@ void MserSegmenter::build_tree(Segmentation* out) {
   constexpr uint32_t kAhead = 12;
   const uint32_t order_end = static_cast<uint32_t>(tex_.order.size());
   const uint32_t* order = tex_.order.data();
-  const uint8_t* sides = tex_.sides.data();
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
@@ -283,24 +288,24 @@ void MserSegmenter::build_tree(Segmentation* out) {
       // The elements come in value order, so their pixels are scattered over the image: fetch
       // a later element's parent links ahead (the loop waits on memory, not on arithmetic).
       if (k + kAhead < order_end) {
-        const uint32_t f = order[k + kAhead];
+        const uint32_t f = order[k + kAhead] & kElement;
         const int32_t fc = static_cast<int32_t>(f >> 1), fs = (f & 1) ? w : 1;
         __builtin_prefetch(parent + fc - fs);
         __builtin_prefetch(parent + fc + fs);
       }
       // Never a line pixel's element, nor a unit inside one feed-forward group (left out of the
-      // order); `sides` says which outer pixel of the unit is on a line.
-      const uint32_t e = order[k];
+      // order); its top bits say which outer pixel of the unit is on a line.
+      const uint32_t entry = order[k];
+      const uint32_t e = entry & kElement;
       const int32_t c = static_cast<int32_t>(e >> 1);
       const int32_t step = (e & 1) ? w : 1;
-      const uint8_t side = sides[k];
       // Most units lie inside one region already: compare roots before uniting.
       int32_t rc = root(c);
-      if (!(side & 1)) {
+      if (!(entry & kSideBefore)) {
         const int32_t ra = root(c - step);
         if (ra != rc) rc = unite(rc, ra);
       }
-      if (!(side & 2)) {
+      if (!(entry & kSideAfter)) {
         const int32_t rb = root(c + step);
         if (rb != rc) unite(rc, rb);
       }

@@ -144,7 +144,7 @@ class MserSegmenter {
   cv::Mat prev_frame_, prev_labels_;
   int prev_regions_ = 0;
   std::vector<int32_t> seed_of_;
-  std::vector<uint8_t> same_;
+  std::vector<uint8_t> same_, unchanged_bytes_;
   std::vector<uint16_t> grad_;
   int seeded_ = 0, seed_groups_ = 0;
   void make_seeds(const cv::Mat& bgr);

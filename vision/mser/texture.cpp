@@ -39,7 +39,7 @@ int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b) {
   return value_from_sum(sa + sb);
 }
 
-void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
+__attribute__((target_clones("avx2", "default"))) void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
   if (bgr.type() != CV_8UC3) throw std::invalid_argument("compute_texture_values: expected a CV_8UC3 image");
   const int w = bgr.cols, h = bgr.rows;
   out->width = w;
@@ -111,6 +111,7 @@ void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
 void order_texture_elements(TextureElements* t, const uint8_t* skip, const int32_t* group) {
   const int32_t w = t->width;
   const size_t n = static_cast<size_t>(t->width) * t->height;
+  if (2 * n > kElement + 1) throw std::invalid_argument("order_texture_elements: image too large");
   // Each element's key: its value, or 256 where it stays out. Per pixel, both of its elements
   // (a value below 256 means the unit exists, so its outer pixels are inside the image).
   t->key.resize(2 * n);
@@ -142,22 +143,19 @@ void order_texture_elements(TextureElements* t, const uint8_t* skip, const int32
   }
   t->level_start[256] = acc;
   t->order.resize(acc);
-  t->sides.resize(skip ? acc : 0);
   uint32_t* __restrict order = t->order.data();
-  uint8_t* __restrict sides = t->sides.data();
   std::array<uint32_t, 256> next{};
   for (int k = 0; k < 256; ++k) next[k] = t->level_start[k];
   for (size_t c = 0; c < n; ++c) {
     const uint16_t kh = key[2 * c], kv = key[2 * c + 1];
+    // Line sides in the top bits (one array written, not two: the sort's writes scatter).
     if (kh < 256) {
-      const uint32_t at = next[kh]++;
-      order[at] = static_cast<uint32_t>(2 * c);
-      if (skip) sides[at] = static_cast<uint8_t>((skip[c - 1] ? 1 : 0) | (skip[c + 1] ? 2 : 0));
+      const uint32_t sides = skip ? (skip[c - 1] ? kSideBefore : 0u) | (skip[c + 1] ? kSideAfter : 0u) : 0u;
+      order[next[kh]++] = static_cast<uint32_t>(2 * c) | sides;
     }
     if (kv < 256) {
-      const uint32_t at = next[kv]++;
-      order[at] = static_cast<uint32_t>(2 * c + 1);
-      if (skip) sides[at] = static_cast<uint8_t>((skip[c - w] ? 1 : 0) | (skip[c + w] ? 2 : 0));
+      const uint32_t sides = skip ? (skip[c - w] ? kSideBefore : 0u) | (skip[c + w] ? kSideAfter : 0u) : 0u;
+      order[next[kv]++] = static_cast<uint32_t>(2 * c + 1) | sides;
     }
   }
 }

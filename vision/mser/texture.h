@@ -16,6 +16,8 @@
 
 namespace vigil::vision::mser {
 
+constexpr uint32_t kElement = 0x3fffffffu, kSideBefore = 1u << 30, kSideAfter = 1u << 31;
+
 // One texture element's value by the formula, for the colours (BGR or RGB order alike) of the
 // pixel `c` and its two neighbours `a` and `b` in one direction.
 int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b);
@@ -26,13 +28,12 @@ int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b);
 struct TextureElements {
   int width = 0, height = 0;
   std::vector<uint16_t> value;
-  // Elements with a unit, in increasing value (stable: by element index within a value).
+  // Elements with a unit, in increasing value (stable: by element index within a value). The
+  // element is `order[k] & kElement`; with a skip mask, the top bits say which of its unit's two
+  // outer pixels is skipped (kSideBefore: left or above; kSideAfter: right or below).
   std::vector<uint32_t> order;
   // order[level_start[v] .. level_start[v + 1]) hold the elements of value v (v = 0..255).
   std::vector<uint32_t> level_start;
-  // With a skip mask: per order entry, which of its unit's two outer pixels is skipped (bit 0:
-  // the one before, left or above; bit 1: the one after). Empty without one.
-  std::vector<uint8_t> sides;
   std::vector<uint16_t> key;  // scratch of the sort
 };
 
