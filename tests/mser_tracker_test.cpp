@@ -199,6 +199,27 @@ TEST(MserTracker, AnObjectLyingOnATableAtTheStartIsReportedThereAndNotTheTable) 
   EXPECT_TRUE(still_run(&*bare).empty());
 }
 
+TEST(MserTracker, SomeoneBehindATableWithTheHeadOutOfViewStandsBeyondItsFarEdge) {
+  const StereoCameraModel cam = corridor_camera();
+  MserTrackerParams p;
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // x 5.1 to 6.0, y -0.9 to 0.9
+  auto t = MserTracker::create(cam, p);
+  ASSERT_TRUE(t.ok());
+  // A tall box from the image's top edge down to a point on the table top well inside its
+  // outline (the body seen above the table, the legs hidden by it).
+  Eigen::Vector2d on_table;
+  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(5.3, 0.0, 0.75), &on_table));
+  const int bottom = static_cast<int>(std::lround(on_table.y()));
+  const cv::Rect box(static_cast<int>(on_table.x()) - 20, 0, 40, bottom);
+  MserTracker::Placement pl;
+  ASSERT_TRUE(t->place(box, &pl));
+  EXPECT_TRUE(pl.by_head);
+  EXPECT_EQ(pl.surface, -1) << "standing on the floor";
+  EXPECT_GT(pl.x, 6.0) << "beyond the table's far edge, not on the table";
+  EXPECT_LT(pl.x, 6.0 + p.max_footprint);
+  EXPECT_NEAR(pl.y, 0.0, 0.05);
+}
+
 TEST(MserTracker, BadFramesAreRefusedWithTheReason) {
   auto t = MserTracker::create(corridor_camera());
   ASSERT_TRUE(t.ok());

@@ -1,5 +1,7 @@
 #include "vision/mser/mser_tracker.h"
 
+#include <limits>
+
 #include <algorithm>
 #include <climits>
 #include <cmath>
@@ -59,6 +61,30 @@ bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
   return std::isfinite(out->x) && std::isfinite(out->y);
 }
 
+namespace {
+
+// How far along the horizontal ray from `from` in direction `along` (unit) it leaves the
+// surface's outline (0 if it never crosses it).
+double far_edge(const Surface& s, const Eigen::Vector2d& from, const Eigen::Vector2d& along) {
+  const double cs = std::cos(s.yaw), sn = std::sin(s.yaw);
+  // The ray in the surface's frame.
+  const double px = cs * (from.x() - s.x) + sn * (from.y() - s.y), py = -sn * (from.x() - s.x) + cs * (from.y() - s.y);
+  const double dx = cs * along.x() + sn * along.y(), dy = -sn * along.x() + cs * along.y();
+  double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+  auto slab = [&](double p, double d, double half) {
+    if (std::abs(d) < 1e-12) return std::abs(p) <= half;
+    double a = (-half - p) / d, b = (half - p) / d;
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+    return t0 <= t1;
+  };
+  if (!slab(px, dx, 0.5 * s.size_x) || !slab(py, dy, 0.5 * s.size_y) || !std::isfinite(t1)) return 0;
+  return t1;
+}
+
+}  // namespace
+
 bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
@@ -98,9 +124,15 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   // their legs hidden by it. Placed by the head, as a person whose feet are out of view.
   if (support > 0 && h - support > p_.classes.bag_max_height) {
     if (place_by_head(box, out)) return true;
-    // The head out of view as well: they stand where the table's edge hides them.
-    out->x = centre.x();
-    out->y = centre.y();
+    // The head out of view as well: they stand behind the table, not on it. The line of sight
+    // through the bottom leaves the table's outline at its far edge; the footprint's near side
+    // is there at the closest, so its centre is half a footprint beyond.
+    const Surface& table = p_.surfaces[out->surface];
+    const double exit = far_edge(table, Eigen::Vector2d(c.x(), c.y()), along);
+    const Eigen::Vector2d behind =
+        exit > dist ? Eigen::Vector2d(c.x(), c.y()) + (exit + 0.5 * std::min(w, p_.max_footprint)) * along : centre;
+    out->x = behind.x();
+    out->y = behind.y();
     out->width = w;
     out->height = out->own_height = p_.cut_person_height;
     out->support = 0;
