@@ -306,6 +306,26 @@ TEST(ActivityRules, BagPresentAtTheStartTakenByAnyoneIsBagTaken) {
   ASSERT_EQ(rules.objects().size(), 0u);
 }
 
+// A mono tracker (the MSER one) holds a still bag at its place, not measured, while someone in
+// front covers it in the image. The one who walks up and covers it may be picking it up out of
+// sight: who stands by a held bag counts as well (dis_bag_taken through the MSER sensor: B
+// reached the bag only after it was hidden, and the theft was missed).
+TEST(ActivityRules, WhoCoversAHeldBagAndWalksOffWithItTookIt) {
+  // The bag is measured until 20 s, then held (reported, not measured) until it goes at 22 s.
+  // Person 2 is 3 m off at 20 s, beside it (0.6 m) from 20.8 s, and walks off at 22 s.
+  Actor taker{2, TrackClass::kPerson, Path{{{14, -3, -0.45}, {20, 2, -0.45}, {20.8, 4.4, -0.45}, {22, 4.4, -0.45}, {30, 4.4 - 1.3 * 8, -0.45}}}};
+  Actor bag = bag_at_5(4.5, 22);
+  bag.measured = [](double t) { return t <= 20 + 1e-6; };
+  auto rules = make_rules();
+  const auto events = run(rules, 30, {owner_walks_off(), bag, taker});
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(events[1].kind, EventKind::kBagTaken);
+  EXPECT_EQ(events[1].people, std::vector<int>{2});
+  EXPECT_GT(seconds(events[1].stamp_ns), 22.0);
+  EXPECT_LT(seconds(events[1].stamp_ns), 24.0);
+}
+
 TEST(ActivityRules, PersonWalkingPastAnUnattendedBagRaisesNothing) {
   // A bag present from the start at (4, 0); a person walks from x = 0 to 12 towards the camera at
   // (10, 0) along y = 0.3, brushing past the bag. From x = 3.7 to 8 they hide it, so the tracker

@@ -308,6 +308,16 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
       const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
       if (owner && owner->last_seen == now) o.owner_x = owner->x, o.owner_y = owner->y, o.owner_seen_at = now;
       o.owner_seen = o.owner_seen_at >= 0 && now - o.owner_seen_at <= keep;
+    } else {
+      // Held, not measured: the tracker keeps a still bag at its place while something covers
+      // it in the image. Whoever stands within pickup_distance of it then is the one covering
+      // it, and may be picking it up out of sight: a candidate too (they are not dropped here).
+      for (const auto& [id, p] : people_) {
+        if (!established(p, now) || p.last_seen != now || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
+        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
+        if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
+        c->x = p.x, c->y = p.y, c->seen = now;
+      }
     }
     if (!o.confirmed) {
       // Owner candidate: the nearest person while the model forms (on measured frames too).

@@ -21,8 +21,9 @@
 //  - bag taken / exchange: the bag goes (its place is in view, not hidden behind a person, and
 //    has no bag for object_gone_time; or its bag is seen carried off) and someone who stood within
 //    pickup_distance of it in its last measured second (Track::measured; a tracker's coasting
-//    prediction of a bag whose blob has gone says nothing about who stood by it) moves off with
-//    it: the one a moving bag track goes with (carry_distance, same velocity, three ticks), else
+//    prediction of a bag whose blob has gone says nothing about who stood by it), or by it while
+//    the tracker held it unmeasured (a mono tracker holds a covered still bag: whoever covers it
+//    may be picking it up out of sight), moves off with it: the one a moving bag track goes with (carry_distance, same velocity, three ticks), else
 //    the first of them to move away (take_distance from the place and half that from where they
 //    stood) or out of view. The owner taking it back is no event; anybody else raises "exchange"
 //    when the owner was within exchange_distance of them when the bag went, else "bag taken"
