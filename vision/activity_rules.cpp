@@ -292,6 +292,15 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
     // A detector misses people now and then, so those near it are whoever was within
     // pickup_distance on any measured frame of the last candidate_time (each at the place they
     // were last seen), less those since seen farther away.
+    // Adds (or moves) everyone established within pickup_distance as a candidate taker.
+    auto note_near = [&](bool seen_now_only) {
+      for (const auto& [id, p] : people_) {
+        if (!established(p, now) || (seen_now_only && p.last_seen != now) || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
+        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
+        if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
+        c->x = p.x, c->y = p.y, c->seen = now;
+      }
+    };
     if (t->measured) {
       const int64_t keep = ns(kCandidateTime);
       std::erase_if(o.candidates, [&](const ObjectModel::Candidate& c) {
@@ -299,12 +308,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
         return now - c.seen > keep || p == people_.end() ||
                (p->second.last_seen == now && dist(p->second.x, p->second.y, o.x, o.y) > p_.pickup_distance);
       });
-      for (const auto& [id, p] : people_) {
-        if (!established(p, now) || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
-        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
-        if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
-        c->x = p.x, c->y = p.y, c->seen = now;
-      }
+      note_near(false);
       const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
       if (owner && owner->last_seen == now) o.owner_x = owner->x, o.owner_y = owner->y, o.owner_seen_at = now;
       o.owner_seen = o.owner_seen_at >= 0 && now - o.owner_seen_at <= keep;
@@ -312,12 +316,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
       // Held, not measured: the tracker keeps a still bag at its place while something covers
       // it in the image. Whoever stands within pickup_distance of it then is the one covering
       // it, and may be picking it up out of sight: a candidate too (they are not dropped here).
-      for (const auto& [id, p] : people_) {
-        if (!established(p, now) || p.last_seen != now || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
-        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
-        if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
-        c->x = p.x, c->y = p.y, c->seen = now;
-      }
+      note_near(true);
     }
     if (!o.confirmed) {
       // Owner candidate: the nearest person while the model forms (on measured frames too).
