@@ -195,7 +195,15 @@ void MserSystem::classify() {
   {
     const int32_t* l = lab.ptr<int32_t>(0);
     const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
-    for (size_t i = 0; i < lab.total(); ++i) under[l[i]] += cv::Vec3d(mi[i][0], mi[i][1], mi[i][2]);
+    // Summed over runs of one label (sums of floats in doubles are exact here, so the order
+    // does not matter).
+    const size_t n = lab.total();
+    for (size_t i = 0; i < n;) {
+      const int32_t r = l[i];
+      double s0 = 0, s1 = 0, s2 = 0;
+      for (; i < n && l[i] == r; ++i) s0 += mi[i][0], s1 += mi[i][1], s2 += mi[i][2];
+      under[r] += cv::Vec3d(s0, s1, s2);
+    }
   }
   for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
     const Region& reg = seg_out_.regions[r];
