@@ -470,6 +470,24 @@ TEST(MserSystem, VigilTrackWritesMotChallengeBoxesFromAMonoVideo) {
   }
   EXPECT_GE(lines, 10);
   EXPECT_TRUE(std::filesystem::exists(dir / "out" / "annotated.avi"));
+  // Shrunk by half before the system sees it: the boxes still come out in the video's pixels.
+  const auto half = test::vigil_cmd("track --pipeline mser --scale 0.5 --no-video --source video:" + avi + " --out " +
+                                    (dir / "half").string() + " -q");
+  ASSERT_EQ(half.code, 0) << half.out;
+  std::ifstream in_half(dir / "half" / "tracks.txt");
+  int half_lines = 0;
+  for (std::string l; std::getline(in_half, l);) {
+    int frame, id, x, y, w, h;
+    ASSERT_EQ(std::sscanf(l.c_str(), "%d,%d,%d,%d,%d,%d,1,-1,-1,-1", &frame, &id, &x, &y, &w, &h), 6) << l;
+    const int f = frame - 1;
+    const cv::Rect truth(10 + 3 * (f - 25), 40, 14, 40), box(x, y, w, h);
+    EXPECT_GE(static_cast<double>((truth & box).area()) / (truth | box).area(), 0.5) << l;
+    ++half_lines;
+  }
+  EXPECT_GE(half_lines, 10);
+  const auto no_scale = test::vigil_cmd("track --pipeline mser --scale 0 --source video:" + avi + " --out " + (dir / "s0").string());
+  EXPECT_NE(no_scale.code, 0);
+  EXPECT_NE(no_scale.out.find("--scale"), std::string::npos) << no_scale.out;
   const auto bad = test::vigil_cmd("track --pipeline mser --source video:/nonexistent/walk.avi --out " + (dir / "bad").string());
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("/nonexistent/walk.avi"), std::string::npos) << bad.out;

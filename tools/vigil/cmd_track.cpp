@@ -8,12 +8,15 @@
 // -1; frames from 1) and DIR/annotated.avi (segmentation, lines, foreground, boxes).
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "plugins/builtin.h"
@@ -31,8 +34,10 @@ namespace vigil::cli {
 namespace {
 
 // The colour MSER system on the left images of a source: MOTChallenge boxes and a video.
+// `scale` < 1: each frame is shrunk by it (area averaging) before the system sees it, and the
+// boxes are scaled back to the source's pixels (the time per frame includes the shrinking).
 void run_mser(const std::string& spec, vision::FrameSource& source, const std::string& out_dir, int64_t max_frames,
-              bool no_video, bool quiet) {
+              bool no_video, bool quiet, double scale) {
   const std::filesystem::path out = out_dir;
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
@@ -44,6 +49,7 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
   cv::VideoWriter video;
   if (!quiet) std::fprintf(stderr, "[track] %s, colour MSER system\n", source.describe().c_str());
   vision::StereoFrame frame;
+  cv::Mat shrunk;
   int64_t n = 0, boxes = 0;
   double busy = 0;
   cv::Mat last;
@@ -56,19 +62,28 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
     if (!*more) break;
     const auto t0 = std::chrono::steady_clock::now();
     std::string why;
-    if (!system.process(frame.left, &why)) {
+    if (scale < 1 && !frame.left.empty()) {
+      const cv::Size small(std::max(3, static_cast<int>(std::lround(frame.left.cols * scale))),
+                           std::max(3, static_cast<int>(std::lround(frame.left.rows * scale))));
+      cv::resize(frame.left, shrunk, small, 0, 0, cv::INTER_AREA);
+    }
+    const cv::Mat& input = scale < 1 && !frame.left.empty() ? shrunk : frame.left;
+    if (!system.process(input, &why)) {
       std::fclose(mot);
       throw Exit{report(bad_input(spec, 0, "--source", "frame " + std::to_string(n) + ": " + why))};
     }
     busy += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ++n;
+    const double up = input.cols > 0 ? static_cast<double>(frame.left.cols) / input.cols : 1.0;
     for (const auto& o : system.objects()) {
-      std::fprintf(mot, "%lld,%lld,%d,%d,%d,%d,1,-1,-1,-1\n", static_cast<long long>(n), static_cast<long long>(o.id), o.box.x,
-                   o.box.y, o.box.width, o.box.height);
+      const int x0 = static_cast<int>(std::lround(o.box.x * up)), y0 = static_cast<int>(std::lround(o.box.y * up));
+      const int x1 = static_cast<int>(std::lround((o.box.x + o.box.width) * up)), y1 = static_cast<int>(std::lround((o.box.y + o.box.height) * up));
+      std::fprintf(mot, "%lld,%lld,%d,%d,%d,%d,1,-1,-1,-1\n", static_cast<long long>(n), static_cast<long long>(o.id), x0, y0,
+                   x1 - x0, y1 - y0);
       ++boxes;
     }
     if (!no_video) {
-      last = system.annotate(frame.left);
+      last = system.annotate(input);
       if (!video.isOpened()) {
         const std::string path = (out / "annotated.avi").string();
         if (!open_view_video(video, path, 15, last.size())) {
@@ -97,7 +112,7 @@ void add_track_command(CLI::App& app) {
     std::string source, pipeline = "planview", out, camera_id;
     int64_t frames = 0;
     bool no_video = false, quiet = false;
-    double max_range = 8.0, cell_size = 0.02, learning_rate = 0.005;
+    double max_range = 8.0, cell_size = 0.02, learning_rate = 0.005, scale = 1.0;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("track", "Run a vision pipeline on a stereo frame source and write its tracks");
@@ -113,6 +128,10 @@ void add_track_command(CLI::App& app) {
   cmd->add_option("--max-range", o->max_range, "plan view: metres from the camera (default 8)")->check(CLI::PositiveNumber);
   cmd->add_option("--cell-size", o->cell_size, "plan view: cell side in metres (default 0.02)")->check(CLI::PositiveNumber);
   cmd->add_option("--learning-rate", o->learning_rate, "foreground: alpha (default 0.005)")->check(CLI::PositiveNumber);
+  cmd->add_option("--scale", o->scale,
+                  "mser on video: or images:: shrink each frame by this factor first (0 < S <= 1; boxes are written in the "
+                  "source's pixels; default 1)")
+      ->check(CLI::Range(0.05, 1.0));
   cmd->add_flag("--no-video", o->no_video, "do not write annotated.avi");
   cmd->add_flag("--quiet,-q", o->quiet, "no progress output");
   cmd->callback([o] {
@@ -125,9 +144,11 @@ void add_track_command(CLI::App& app) {
     // Without a calibrated camera (a plain video or image folder) the MSER system tracks in the
     // image: MOTChallenge boxes.
     if (o->pipeline == "mser" && !model) {
-      run_mser(o->source, **source, o->out, o->frames, o->no_video, o->quiet);
+      run_mser(o->source, **source, o->out, o->frames, o->no_video, o->quiet, o->scale);
       return;
     }
+    if (o->scale != 1.0)
+      throw Exit{report(bad_input(o->source, 0, "--scale", "only the mser pipeline on a video: or images: source shrinks frames"))};
     if (o->pipeline == "planview" && (!(*source)->is_stereo() || !model)) {
       throw Exit{report(bad_input(o->source, 0, "--source",
                                   "the plan-view pipeline needs a calibrated stereo source with a pose (render:, or "
