@@ -216,7 +216,7 @@ void MserSegmenter::build_tree(Segmentation* out) {
     r.top_head = r.top_tail = id;
   };
   // Unites two roots: the smaller region goes into the larger (on a tie, b into a).
-  auto unite = [&](int32_t a, int32_t b) {
+  auto unite = [&](int32_t a, int32_t b) __attribute__((always_inline)) {
     if (size_of(a) < size_of(b)) std::swap(a, b);
     Rec& A = record_of(a);
     if (parent[b] == -1) {
@@ -370,12 +370,18 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
   // some level, so every merge that formed it comes before any that reaches outside it.
   const size_t nm = merges_.size();
   accepted_.resize(nm);
+  // Component sizes at their roots, added up as merges are accepted (line pixels are never
+  // merged: they stay components of one).
+  std::vector<int32_t>& comp_size = comp_size_;
+  comp_size.assign(n, 1);
   for (size_t k = 0; k < nm; ++k) {
     const auto [a, b] = merges_[k];
     const int32_t la = leaf_of_[a], lb = leaf_of_[b];
     const bool ok = la < 0 || lb < 0 || la == lb;  // leaves never merge
     accepted_[k] = ok;
-    if (ok && la < 0) leaf_of_[a] = lb;
+    if (!ok) continue;
+    if (la < 0) leaf_of_[a] = lb;
+    comp_size[a] += comp_size[b];
   }
   // Every pixel's component: a merge's b takes a's final root, latest merges first.
   root_.resize(n);
@@ -386,11 +392,7 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
   out->labels.create(h, w, CV_32S);
   int32_t* lab = out->labels.ptr<int32_t>(0);
   std::vector<int32_t>& region_of_root = region_of_root_;
-  std::vector<int32_t>& comp_size = comp_size_;
   region_of_root.assign(n, -1);
-  comp_size.assign(n, 0);
-  for (size_t i = 0; i < n; ++i)
-    if (!blocked_[i]) ++comp_size[root_[i]];
   out->regions.clear();
   for (size_t li = 0; li < out->leaves.size(); ++li) {
     const int32_t r = root_[out->tree[out->leaves[li]].head];
@@ -515,24 +517,60 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     }
     pending.swap(still);
   }
-  // Feed-forward links: the last frame's region most of a region's seeds came from.
+  // Feed-forward links: the last frame's region most of a region's seeds came from (on a tie,
+  // the lowest). Counted over runs of one (region, donor) pair along the image; a region has
+  // few donors, kept in a short list, more in a map.
   if (seeded_ > 0) {
-    std::vector<std::map<int, int>> by_donor(out->regions.size());
-    for (size_t i = 0; i < n; ++i)
-      if (seed_of_[i] >= 0) ++by_donor[lab[i]][seed_of_[i]];
+    struct Donors {
+      int32_t donor[4], count[4];
+      int used = 0;
+      std::map<int, int> more;
+    };
+    std::vector<Donors> by(out->regions.size());
+    auto add = [&by](int32_t r, int32_t d, int32_t c) {
+      Donors& x = by[r];
+      for (int k = 0; k < x.used; ++k)
+        if (x.donor[k] == d) {
+          x.count[k] += c;
+          return;
+        }
+      if (x.used < 4) {
+        x.donor[x.used] = d;
+        x.count[x.used++] = c;
+      } else {
+        x.more[d] += c;
+      }
+    };
+    const int32_t* seed = seed_of_.data();
+    for (size_t i = 0; i < n;) {
+      const int32_t d = seed[i];
+      if (d < 0) {
+        ++i;
+        continue;
+      }
+      const int32_t r = lab[i];
+      size_t j = i + 1;
+      while (j < n && seed[j] == d && lab[j] == r) ++j;
+      add(r, d, static_cast<int32_t>(j - i));
+      i = j;
+    }
     for (size_t r = 0; r < out->regions.size(); ++r) {
+      const Donors& x = by[r];
       int best = -1, most = 0, total = 0;
-      for (const auto& [d, c] : by_donor[r]) {
+      auto consider = [&](int d, int c) {
         total += c;
-        if (c > most) {
+        if (c > most || (c == most && c > 0 && d < best)) {
           most = c;
           best = d;
         }
-      }
+      };
+      for (int k = 0; k < x.used; ++k) consider(x.donor[k], x.count[k]);
+      for (const auto& [d, c] : x.more) consider(d, c);
       out->regions[r].donor = best;
       out->regions[r].seeds = total;
     }
   }
+
   for (size_t r = 0; r < m; ++r) {
     Region& reg = out->regions[r];
     const RegionSums& a = sums_[r];
