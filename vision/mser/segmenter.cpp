@@ -277,22 +277,12 @@ void MserSegmenter::build_tree(Segmentation* out) {
         A.prev_size = A.size;
       }
   }
-  constexpr uint32_t kAhead = 12;
-  const uint32_t order_end = static_cast<uint32_t>(tex_.order.size());
   const uint32_t* order = tex_.order.data();
   for (int v = 0; v < 256; ++v) {
     level = static_cast<int16_t>(v);
     touched_.clear();
     const uint32_t k_end = tex_.level_start[v + 1];
     for (uint32_t k = tex_.level_start[v]; k < k_end; ++k) {
-      // The elements come in value order, so their pixels are scattered over the image: fetch
-      // a later element's parent links ahead (the loop waits on memory, not on arithmetic).
-      if (k + kAhead < order_end) {
-        const uint32_t f = order[k + kAhead] & kElement;
-        const int32_t fc = static_cast<int32_t>(f >> 1), fs = (f & 1) ? w : 1;
-        __builtin_prefetch(parent + fc - fs);
-        __builtin_prefetch(parent + fc + fs);
-      }
       // Never a line pixel's element, nor a unit inside one feed-forward group (left out of the
       // order); its top bits say which outer pixel of the unit is on a line.
       const uint32_t entry = order[k];
