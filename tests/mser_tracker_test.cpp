@@ -220,6 +220,91 @@ TEST(MserTracker, SomeoneBehindATableWithTheHeadOutOfViewStandsBeyondItsFarEdge)
   EXPECT_NEAR(pl.y, 0.0, 0.05);
 }
 
+// The body above a table whose legs the table hides: the box's bottom is the table's far edge,
+// and the floor its bottom ray meets beyond the table (here 3 m further) is not where they stand.
+TEST(MserTracker, ABoxCutOffByATablesFarEdgeStandsJustBehindItNotWhereItsBottomRayMeetsTheFloor) {
+  const StereoCameraModel cam = corridor_camera();
+  MserTrackerParams p;
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // x 5.1 to 6.0
+  auto t = MserTracker::create(cam, p);
+  ASSERT_TRUE(t.ok());
+  Eigen::Vector2d edge;
+  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(6.0, 0.0, 0.75), &edge));
+  const int bottom = static_cast<int>(std::floor(edge.y())) - 1;  // just above the edge: the floor beyond
+  const cv::Rect box(static_cast<int>(edge.x()) - 20, 0, 40, bottom);
+  MserTracker::Placement pl;
+  ASSERT_TRUE(t->place(box, &pl));
+  EXPECT_TRUE(pl.by_head);
+  EXPECT_GT(pl.x, 6.0);
+  EXPECT_LT(pl.x, 6.0 + p.max_footprint);
+  EXPECT_GE(pl.height, p.classes.person_min_height);
+  // Without the table the same box stands where its bottom ray meets the floor, far beyond.
+  auto bare = MserTracker::create(cam);
+  ASSERT_TRUE(bare.ok());
+  ASSERT_TRUE(bare->place(box, &pl));
+  EXPECT_GT(pl.x, 8.0);
+}
+
+// Hands (Track::hand_on). After the laptop on the table has been learned as present at the
+// start, a figure standing behind it (the laptop drawn over the figure: its pixels unchanged)
+// has no hand on it; the same figure with an arm over the laptop has.
+TEST(MserTracker, AHandOverAnObjectPresentAtTheStartIsSeenAndSomeoneBehindItIsNot) {
+  const StereoCameraModel cam = corridor_camera();
+  MserTrackerParams p;
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});
+  auto t = MserTracker::create(cam, p);
+  ASSERT_TRUE(t.ok());
+  EXPECT_TRUE(t->sees_hands());
+  const cv::Mat empty = table_scene(cam);
+  std::vector<cv::Point> laptop;
+  for (const auto& [x, y] : {std::pair{5.3, 0.2}, std::pair{5.6, 0.2}, std::pair{5.6, 0.55}, std::pair{5.3, 0.55}}) {
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project_map(Eigen::Vector3d(x, y, 0.78), &px));
+    laptop.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
+  }
+  const cv::Rect lb = cv::boundingRect(laptop);
+  const cv::Point centre(lb.x + lb.width / 2, lb.y + lb.height / 2);
+  // A green-shirted figure from the image's top to just below the laptop's far side.
+  const cv::Rect body(centre.x - 22, 0, 44, lb.y + 4);
+  auto scene = [&](bool hand) {
+    cv::Mat img = empty.clone();
+    cv::rectangle(img, body, cv::Scalar(60, 160, 50), cv::FILLED);
+    cv::fillConvexPoly(img, laptop, cv::Scalar(120, 120, 120));  // in front of the figure
+    if (hand) cv::line(img, cv::Point(body.x + 6, body.br().y - 8), centre, cv::Scalar(110, 150, 215), 6);
+    return img;
+  };
+  int64_t k = 0;
+  auto step = [&](const cv::Mat& img) {
+    StereoFrame f;
+    f.index = k;
+    f.stamp_ns = ++k * 66'666'667LL;
+    f.left = img;
+    auto tracks = t->process(f);
+    EXPECT_TRUE(tracks.ok()) << tracks.error().str();
+    return tracks.ok() ? *tracks : std::vector<Track>{};
+  };
+  for (int i = 0; i < 25; ++i) step(empty);
+  bool start_object = false;
+  for (const Track& tr : step(empty)) start_object = start_object || tr.id == MserTracker::kStartIds + 1;
+  ASSERT_TRUE(start_object) << "the laptop, present at the start";
+  bool figure = false;
+  for (int i = 0; i < 10; ++i)
+    for (const Track& tr : step(scene(false))) {
+      EXPECT_EQ(tr.hand_on, 0) << "behind the laptop, frame " << i;
+      figure = figure || (tr.id < MserTracker::kStartIds && tr.cls != TrackClass::kBag);
+    }
+  ASSERT_TRUE(figure) << "the figure is tracked";
+  int hands = 0;
+  for (int i = 0; i < 10; ++i)
+    for (const Track& tr : step(scene(true)))
+      if (tr.hand_on != 0) {
+        EXPECT_EQ(tr.hand_on, MserTracker::kStartIds + 1);
+        EXPECT_LT(tr.id, MserTracker::kStartIds);
+        ++hands;
+      }
+  EXPECT_GE(hands, 8) << "the hand seen on the laptop";
+}
+
 TEST(MserTracker, BadFramesAreRefusedWithTheReason) {
   auto t = MserTracker::create(corridor_camera());
   ASSERT_TRUE(t.ok());

@@ -279,6 +279,49 @@ TEST(RenderScenario, PersonAndBagAreLabelledWherePlaced) {
   EXPECT_GT(cv::countNonZero(f.labels == person_label), 500);
 }
 
+// Someone touching a thing reaches for it: in the lab at 21.5 s B touches the laptop, facing it,
+// and B's hand is drawn on it (B's label at the laptop's top, seen from the lab camera). A second
+// earlier, walking to it, B's arms hang and nothing of B is there at the hand's depth.
+TEST(RenderScenario, APersonHandlingAnObjectReachesForIt) {
+  for (const double at : {21.5, 19.8}) {
+    auto w = world_at("dis_lab_unauthorised.yaml", at);
+    ASSERT_TRUE(w);
+    const CameraSpec* spec = find_camera(*w, "cam_lab");
+    ASSERT_TRUE(spec);
+    const auto cam = camera_model(*spec);
+    auto r = make_renderer(spec->width, spec->height);
+    ASSERT_TRUE(r);
+    const RenderScene scene = build_render_scene(*w, scene_options_for(*w, spec));
+    vision::StereoFrame f;
+    ASSERT_TRUE(r->render(scene, cam, &f).ok());
+    const PersonEntity& b = w->people()[0];
+    const ObjectEntity* laptop = nullptr;
+    for (const auto& o : w->objects()) laptop = o.spec.id == "laptop" ? &o : laptop;
+    ASSERT_TRUE(laptop);
+    const int b_label = 1 + static_cast<int>(w->robots().size());
+    ASSERT_EQ(scene.label_ids.at(b_label), "B");
+    // B's pixels around where the hand goes (the laptop's top), at the hand's depth (B's body
+    // stands 0.9 m further back).
+    const Vector3d target(laptop->pose.x, laptop->pose.y, laptop->z + laptop->spec.size_z);
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project_map(target, &px));
+    const double target_depth = (cam.optical_from_map() * target).z();
+    int b_pixels = 0;
+    for (int v = static_cast<int>(px.y()) - 8; v <= static_cast<int>(px.y()) + 8; ++v)
+      for (int u = static_cast<int>(px.x()) - 8; u <= static_cast<int>(px.x()) + 8; ++u)
+        b_pixels += f.labels.at<int32_t>(v, u) == b_label && std::abs(f.depth.at<float>(v, u) - target_depth) < 0.2;
+    if (at == 21.5) {
+      EXPECT_TRUE(b.handling());
+      const double to_laptop = std::atan2(laptop->pose.y - b.pose.y, laptop->pose.x - b.pose.x);
+      EXPECT_NEAR(std::remainder(b.pose.yaw - to_laptop, 2 * M_PI), 0.0, 0.05) << "facing it";
+      EXPECT_GT(b_pixels, 10) << "the hand on the laptop";
+    } else {
+      EXPECT_FALSE(b.handling());
+      EXPECT_EQ(b_pixels, 0);
+    }
+  }
+}
+
 TEST(RenderScenario, CorridorHasCeilingLightsAlongItsCentre) {
   auto w = world_at("dis_left_bag.yaml", 0.0);
   ASSERT_TRUE(w);

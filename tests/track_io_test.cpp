@@ -65,6 +65,18 @@ TEST(TrackIo, WriterPrintsFixedDecimalsInAFixedKeyOrder) {
   auto bad = parse_track_json("{\"t_ns\":5,\"camera\":\"c\",\"id\":1,\"class\":\"bag\",\"x\":1,\"y\":2,\"measured\":0}", "f", 7);
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().key, "measured");
+  // A hand seen on another track is written while it is, and read back; a fraction is refused.
+  Track handling = sample();
+  handling.hand_on = 1000001;
+  const std::string hl = format_track_json(handling);
+  EXPECT_NE(hl.find("\"hand_on\":1000001"), std::string::npos) << hl;
+  EXPECT_EQ(format_track_json(sample()).find("hand_on"), std::string::npos);
+  auto hb = parse_track_json(hl, "x", 1);
+  ASSERT_TRUE(hb) << hb.error().str();
+  EXPECT_EQ(hb->hand_on, 1000001);
+  auto frac = parse_track_json("{\"t_ns\":5,\"camera\":\"c\",\"id\":1,\"class\":\"bag\",\"x\":1,\"y\":2,\"hand_on\":1.5}", "f", 3);
+  ASSERT_FALSE(frac);
+  EXPECT_EQ(frac.error().key, "hand_on");
 }
 
 TEST(TrackIo, RoundTripsThroughAFile) {

@@ -39,6 +39,7 @@ Status ActivityRuleParams::validate() const {
       {"occluder_radius", occluder_radius, true},      {"robot_radius", robot_radius, true},
       {"owner_window", owner_window, true},            {"person_confirm_time", person_confirm_time, true},
       {"carry_distance", carry_distance, false},       {"touch_still_speed", touch_still_speed, false},
+      {"hand_gap", hand_gap, true},
   };
   for (const auto& c : checks) {
     if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
@@ -140,6 +141,8 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
 
   std::vector<const Track*> bags;
   moving_bags_.clear();
+  std::map<int, const Track*> by_id;
+  for (const Track& t : tracks) by_id[t.id] = &t;
   for (const Track& t : tracks) {
     if (t.cls == TrackClass::kPerson) {
       Person& p = people_[t.id];
@@ -153,6 +156,9 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
       p.confidence = t.confidence;
       p.speed = std::hypot(t.vx, t.vy);
       p.vx = t.vx, p.vy = t.vy;
+      p.hand_on = 0;
+      if (const auto h = by_id.find(t.hand_on); t.hand_on != 0 && h != by_id.end() && h->second != &t)
+        p.hand_on = t.hand_on, p.hand_x = h->second->x, p.hand_y = h->second->y;
     } else if ((t.cls == TrackClass::kBag || (t.cls == TrackClass::kUnknown && in_handling_zone(t.x, t.y))) &&
                std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
       bags.push_back(&t);
@@ -475,10 +481,44 @@ int ActivityRules::carrier(const ObjectModel& o, int64_t now) const {
   return who;
 }
 
+template <typename Key>
+bool ActivityRules::hand_tick(std::map<Key, Visit>* visits, int person, const Key& key, bool on, const Person& p, int64_t now) {
+  // Visits of this person whose hand has been off them for longer than hand_gap end.
+  for (auto it = visits->begin(); it != visits->end();) {
+    const bool end = it->first.first == person && !(on && it->first == key) && now - it->second.last_hand > ns(p_.hand_gap);
+    it = end ? visits->erase(it) : std::next(it);
+  }
+  if (!on) return false;
+  Visit& v = visits->try_emplace(key, Visit{now, false, now}).first->second;
+  v.last_hand = now;
+  if (p.speed > p_.touch_still_speed) v.since = now;  // walking past: the time starts when they stop
+  if (v.reported || now - v.since < ns(p_.touch_time)) return false;
+  v.reported = true;
+  return true;
+}
+
 void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
   if (p_.watched.empty()) return;
   for (const auto& [id, p] : people_) {
     if (p.last_seen != now) continue;
+    if (p_.hands_seen) {
+      // The marked object the hand is on: the nearest one to the handled track, within
+      // object_match_distance of it.
+      size_t w_on = 0;
+      double wd = std::numeric_limits<double>::infinity();
+      for (size_t i = 0; p.hand_on != 0 && i < p_.watched.size(); ++i) {
+        const double d = dist(p.hand_x, p.hand_y, p_.watched[i].position.x, p_.watched[i].position.y);
+        if (d < wd) wd = d, w_on = i;
+      }
+      const bool on = wd <= p_.object_match_distance;
+      if (!hand_tick(&visits_, id, std::make_pair(id, w_on), on, p, now) || p_.watched[w_on].authorised) continue;
+      const WatchedObject& w = p_.watched[w_on];
+      Event e = make_event(EventKind::kUnauthorisedObject, now, w.position, p.confidence);
+      e.object = w.name;
+      e.people = {id};
+      out->push_back(e);
+      continue;
+    }
     // The nearest marked object to this person.
     size_t nearest = 0;
     double nd = std::numeric_limits<double>::infinity();
@@ -542,10 +582,17 @@ void ActivityRules::rule_zone_touch(int64_t now, std::vector<Event>* out) {
     double nd = std::numeric_limits<double>::infinity();
     for (const ObjectModel& o : objects_) {
       if (!o.confirmed || !in_zone(o)) continue;
-      const double d = dist(p.x, p.y, o.x, o.y);
+      // With hands seen: the model the hand is on (its track, or the nearest to the handled one).
+      const double d = !p_.hands_seen ? dist(p.x, p.y, o.x, o.y)
+                       : p.hand_on == 0 ? std::numeric_limits<double>::infinity()
+                       : o.track == p.hand_on ? 0.0
+                                              : dist(p.hand_x, p.hand_y, o.x, o.y);
       if (d < nd) nd = d, nearest = &o;
     }
-    if (!nearest || nd > p_.touch_distance) {
+    if (p_.hands_seen) {
+      const bool on = nearest && nd <= p_.object_match_distance;
+      if (!hand_tick(&model_visits_, id, std::make_pair(id, on ? nearest->key : uint64_t{0}), on, p, now)) continue;
+    } else if (!nearest || nd > p_.touch_distance) {
       for (auto it = model_visits_.begin(); it != model_visits_.end();) {
         bool clear = it->first.first == id;
         for (const ObjectModel& o : objects_)
@@ -554,10 +601,12 @@ void ActivityRules::rule_zone_touch(int64_t now, std::vector<Event>* out) {
       }
       continue;
     }
-    Visit& v = model_visits_.try_emplace({id, nearest->key}, Visit{now, false}).first->second;
-    if (p.speed > p_.touch_still_speed) v.since = now;
-    if (v.reported || now - v.since < ns(p_.touch_time)) continue;
-    v.reported = true;
+    if (!p_.hands_seen) {
+      Visit& v = model_visits_.try_emplace({id, nearest->key}, Visit{now, false}).first->second;
+      if (p.speed > p_.touch_still_speed) v.since = now;
+      if (v.reported || now - v.since < ns(p_.touch_time)) continue;
+      v.reported = true;
+    }
     if (nearest->owner == id) continue;  // their own
     bool marked = false;                 // the operator's mark covers it
     for (const WatchedObject& w : p_.watched)

@@ -102,6 +102,14 @@ struct ActivityRuleParams {
   std::vector<WatchedObject> watched;
   std::vector<HandlingZone> handling_zones;
   double zone_margin = 0.3;          // m around a zone that still counts as on it
+  // The tracker sees hands (Tracker::sees_hands: Track::hand_on names the object a person's hand
+  // is on). Handling is then judged by the hand, not by distance: a person whose hand is seen on
+  // an object (a marked one within object_match_distance of it, or a model in a handling zone)
+  // for touch_time, standing, handles it; gaps in the hand's sighting up to hand_gap are bridged.
+  // A mono camera places someone behind a table only roughly, and someone beside an object is not
+  // handling it.
+  bool hands_seen = false;
+  double hand_gap = 0.5;             // s
   // Checks every value; the key names the parameter.
   Status validate() const;
 };
@@ -166,6 +174,8 @@ class ActivityRules {
     double confidence = 0;
     double speed = 0;  // m/s, as the tracker gives it
     double vx = 0, vy = 0;
+    int hand_on = 0;                  // the track their hand is on this tick (0: none)
+    double hand_x = 0, hand_y = 0;    // ...and where that track is
   };
   // A person track seen on this tick that has lasted person_confirm_time: a single-frame false
   // detection owns nothing, takes nothing and hides nothing.
@@ -173,7 +183,12 @@ class ActivityRules {
   struct Visit {
     int64_t since = 0;
     bool reported = false;
+    int64_t last_hand = -1;  // hands_seen: when the hand was last seen on it
   };
+  // hands_seen: one tick of a person's hand on (or off) an object; true when the visit has just
+  // lasted touch_time (report it). Visits whose hand has been off longer than hand_gap end.
+  template <typename Key>
+  bool hand_tick(std::map<Key, Visit>* visits, int person, const Key& key, bool on, const Person& p, int64_t now);
   // A bag track's first frames: who stood nearest to it then (see owner_window).
   struct BagTrackStart {
     int64_t first = -1, last_seen = 0;

@@ -23,6 +23,9 @@ class Tracker {
   virtual std::string_view name() const = 0;
   // True when process() needs frame.depth (a stereo system); false when the left image is enough.
   virtual bool needs_depth() const = 0;
+  // True when the tracker reports where people's hands are (Track::hand_on): the activity
+  // rules then judge handling by the hand seen on the object rather than by distance alone.
+  virtual bool sees_hands() const { return false; }
   // Where this frame's depth is needed (CV_8UC1 of the frame's size, nonzero = needed), from its
   // left image, before process() is given the same frame; empty = everywhere (the default). A
   // stereo source may then match only there and say so in frame.depth_measured.

@@ -361,6 +361,27 @@ std::optional<Vec2> World::approach_point(int i, Vec2 target) const {
   return std::nullopt;
 }
 
+bool PersonEntity::handling() const {
+  if (phase != Phase::kActing || approaching || step_index >= spec.script.size()) return false;
+  const ActionKind k = spec.script[step_index].kind;
+  return k == ActionKind::kPickUp || k == ActionKind::kPutDown || k == ActionKind::kTouch;
+}
+
+namespace {
+// Where a put-down without a place sets the thing down: where it hangs (bags, at the side) or
+// just in front (things held in front), out of the person's own way.
+Vec2 put_down_spot(const PersonEntity& p, const ObjectEntity& o) {
+  const Vec2 off = is_bag(o) ? Vec2{0.0, -(p.spec.radius + 0.2)} : Vec2{p.spec.radius + 0.2, 0.0};
+  return p.pose.position() + rotate(off, p.pose.yaw);
+}
+
+// A person about to use their hands turns to what they reach for.
+void face(PersonEntity& p, Vec2 target) {
+  const Vec2 d = target - p.pose.position();
+  if (d.norm() > 0.05) p.pose.yaw = std::atan2(d.y, d.x);
+}
+}  // namespace
+
 Status World::start_action(int i) {
   PersonEntity& p = people_[i];
   const Action& a = p.spec.script[p.step_index];
@@ -391,10 +412,16 @@ Status World::start_action(int i) {
         return bad_input(scenario_.file.string(), a.line, to_string(a.kind),
                          "object '" + a.object + "' is not lying anywhere at this point (carried or gone)");
       }
+      // A put-down without a place sets the thing down where it hangs (finish_action): the hand
+      // goes there, and the person does not turn (which would move the spot).
+      const bool in_place = a.kind == ActionKind::kPutDown && !a.has_target;
       const Vec2 target = a.kind != ActionKind::kPutDown ? o.pose.position()
                           : a.has_target               ? a.target.point
-                                                       : p.pose.position();
+                                                       : put_down_spot(p, o);
       const double hand = a.duration > 0 ? a.duration : kDefaultHandSeconds;
+      // The hand goes to the object's top, or to where it will stand once put down.
+      p.reach_target = target;
+      p.reach_z = (a.kind == ActionKind::kPutDown ? object_height_at(target, nullptr) : o.z) + o.spec.size_z;
       if ((target - p.pose.position()).norm() > kReach) {
         auto spot = approach_point(i, target);
         if (!spot) {
@@ -404,10 +431,10 @@ Status World::start_action(int i) {
         if (Status s = plan_walk(i, *spot, a.line, "a spot beside '" + a.object + "'"); !s) return s;
         p.approaching = true;
         p.hand_seconds = hand;  // acted once within reach
-        p.reach_target = target;
         return Status::Ok();
       }
       act_for(hand);
+      if (!in_place) face(p, target);
       return Status::Ok();
     }
   }
@@ -464,10 +491,7 @@ Status World::finish_action(int i) {
       if (a.has_target) {
         where = a.target.point;
       } else {
-        // Set down where it hangs (bags, at the side) or just in front (things held in front),
-        // out of the person's own way.
-        const Vec2 off = is_bag(o) ? Vec2{0.0, -(p.spec.radius + 0.2)} : Vec2{p.spec.radius + 0.2, 0.0};
-        const Vec2 spot = p.pose.position() + rotate(off, p.pose.yaw);
+        const Vec2 spot = put_down_spot(p, o);
         where = map_.is_free_disc(spot, 0.15) ? spot : p.pose.position();
       }
       std::erase(p.carrying, oi);
@@ -553,6 +577,7 @@ Status World::step_person(int i) {
         p.phase = PersonEntity::Phase::kActing;
         p.phase_end = time_ + from_seconds(p.hand_seconds);
         p.approaching = false;
+        face(p, p.reach_target);
       } else if (Status st = finish_action(i); !st) {
         return st;
       }

@@ -83,9 +83,13 @@ struct PersonEntity {
   SimTime phase_end = 0;
   double hand_seconds = 0;  // how long the pending hand action takes once within reach
   Vec2 reach_target;        // what the pending hand action reaches for
+  double reach_z = 0;       // ...and the height the hand goes to (m above the floor)
   SimTime progress_check = 0;
   double progress_distance = 0;
   std::vector<int> carrying;  // object indices
+  // True while a hand action (pick up, put down, touch) is being done: the person faces
+  // reach_target and the renderer draws the arm reaching to it at reach_z.
+  bool handling() const;
 };
 
 struct ObjectEntity {

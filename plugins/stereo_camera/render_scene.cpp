@@ -210,7 +210,8 @@ Eigen::Vector3f colour_from_hex(const std::string& hex) {
 }
 
 void add_person_figure(RenderScene* s, double x, double y, double yaw, double height, double radius, double walked,
-                       double speed, const Vector3f& shirt, const Vector3f& trousers, int32_t label) {
+                       double speed, const Vector3f& shirt, const Vector3f& trousers, int32_t label,
+                       const Vector3d* hand_target) {
   const double h = height;
   const Isometry3d fig = planar_pose(x, y, 0, yaw);
   const double phase = 2 * M_PI * walked / kStride;
@@ -237,9 +238,31 @@ void add_person_figure(RenderScene* s, double x, double y, double yaw, double he
       trousers, Texture::kCloth, label);
   // Arms swing against the legs; sleeves then hands.
   const double arm_len = 0.36 * h, arm_w = 0.075 * h / 1.75;
+  // The reaching arm: the side whose shoulder is nearer the target.
+  int reach_side = 0;
+  if (hand_target) reach_side = (fig.inverse() * *hand_target).y() >= 0 ? 1 : -1;
   for (int side : {1, -1}) {
     const double a = -side * swing * 0.8;
     const Vector3d joint(0, side * (torso_w / 2 + arm_w / 2 + 0.005), shoulder - 0.03);
+    if (side == reach_side) {
+      const Vector3d from = fig * joint;
+      const Vector3d to = *hand_target - from;
+      const double len = std::min(to.norm(), 1.7 * arm_len);
+      if (len > 0.05) {
+        const Vector3d dir = to / to.norm();
+        // The limb's local -z (hanging down) turned onto the reach direction.
+        const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(-Vector3d::UnitZ(), dir);
+        Isometry3d sleeve = Isometry3d::Identity();
+        sleeve.translate(from + dir * (0.4 * len));
+        sleeve.rotate(q);
+        add(s, Shape::kBox, sleeve, Vector3d(arm_w, arm_w, 0.8 * len), shirt, Texture::kCloth, label);
+        Isometry3d hand = Isometry3d::Identity();
+        hand.translate(from + dir * (0.9 * len));
+        hand.rotate(q);
+        add(s, Shape::kBox, hand, Vector3d(arm_w * 0.9, arm_w * 0.8, 0.2 * len), kSkin, Texture::kSkin, label);
+        continue;
+      }
+    }
     add_limb(s, fig, joint, arm_len * 0.8, arm_w, arm_w, a, shirt, Texture::kCloth, label);
     Isometry3d hand = fig;
     hand.translate(joint);
@@ -299,8 +322,10 @@ RenderScene build_render_scene(const World& world, const SceneOptions& options) 
   }
   for (const PersonEntity& p : world.people()) {
     if (p.present) {
+      const Vector3d reach(p.reach_target.x, p.reach_target.y, p.reach_z);
       add_person_figure(&s, p.pose.x, p.pose.y, p.pose.yaw, p.spec.height, p.spec.radius, p.walked,
-                        p.velocity.norm(), colour_from_hex(p.spec.shirt), colour_from_hex(p.spec.trousers), label);
+                        p.velocity.norm(), colour_from_hex(p.spec.shirt), colour_from_hex(p.spec.trousers), label,
+                        p.handling() ? &reach : nullptr);
     }
     ++label;
     s.label_ids.push_back(p.spec.id);

@@ -77,10 +77,13 @@ RenderScene build_render_scene(const World& world, const SceneOptions& options =
 
 // Appends a walking person's figure (legs, torso, arms, head) standing at (x, y) facing `yaw`:
 // `walked` metres walked so far drives the gait phase (one cycle per 1.4 m), `speed` (m/s)
-// its amplitude. Colours are linear RGB.
+// its amplitude. Colours are linear RGB. With `hand_target` (map frame), the arm on that side
+// reaches from the shoulder towards it (stretched up to 1.7 times its length, as a person
+// leans to reach), the hand at its end: someone picking up, putting down or touching a thing.
 void add_person_figure(RenderScene* scene, double x, double y, double yaw, double height, double radius,
                        double walked, double speed, const Eigen::Vector3f& shirt,
-                       const Eigen::Vector3f& trousers, int32_t label);
+                       const Eigen::Vector3f& trousers, int32_t label,
+                       const Eigen::Vector3d* hand_target = nullptr);
 
 // "#rrggbb" to RGB in [0, 1]; grey for anything malformed.
 Eigen::Vector3f colour_from_hex(const std::string& hex);

@@ -75,6 +75,7 @@ class TrackerSensor : public VisionSensor {
   }
 
   bool wants_frames() const override { return true; }
+  bool sees_hands() const override { return tracker_ && tracker_->sees_hands(); }
 
   Status tick(const vision::StereoFrame* frame, const World&, std::vector<vision::Track>* out) override {
     if (!frame) return internal_error(std::string(tracker_ ? tracker_->name() : "tracker") + ": a tick without a frame");

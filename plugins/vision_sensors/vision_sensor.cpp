@@ -169,7 +169,9 @@ Status VisionSensorHost::start(const World& world, const std::filesystem::path& 
   const vision::ActivityRuleParams rp = activity_rule_params(world);
   robot_radius_ = rp.robot_radius;
   for (auto& a : sensors_) {
-    auto rules = vision::ActivityRules::create(rp, a->camera.id, a->model);
+    vision::ActivityRuleParams own = rp;
+    own.hands_seen = a->sensor->sees_hands();
+    auto rules = vision::ActivityRules::create(own, a->camera.id, a->model);
     if (!rules) return in_context(*a, world, rules.error());
     a->rules.emplace(std::move(*rules));
   }

@@ -54,6 +54,8 @@ class VisionSensor {
   virtual Status configure(const ParamSet& params, const SensorContext& ctx) = 0;
   // True when the sensor consumes rendered frames; false when it reads the world directly.
   virtual bool wants_frames() const = 0;
+  // True when its tracks say where people's hands are (Track::hand_on; vision::Tracker::sees_hands).
+  virtual bool sees_hands() const { return false; }
   // One camera tick at the world's current time: `frame` is the rendered stereo frame (null for
   // sensors that do not want frames). Appends this tick's tracks to `out`.
   virtual Status tick(const vision::StereoFrame* frame, const World& world, std::vector<vision::Track>* out) = 0;

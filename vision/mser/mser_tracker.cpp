@@ -6,6 +6,8 @@
 #include <climits>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "vision/planview_system.h"
 
 namespace vigil::vision::mser {
@@ -100,6 +102,15 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   // outline, else the floor.
   double t = 0;
   out->surface = first_surface(c, foot_dir, p_.surface_margin, &t);
+  // The bottom on a surface's far edge: the rows just below it look onto the table top, so the
+  // table hides what is below (someone standing behind it, their legs out of view), and the
+  // floor the bottom ray meets beyond the table is not where they stand.
+  int hidden_by = -1;
+  if (out->surface < 0) {
+    const Eigen::Vector3d below = camera_.back_project_map(u, std::min(v_bottom + p_.edge_rows, k.height - 0.5), 1.0) - c;
+    double tb = 0;
+    if (below.z() < -1e-9) hidden_by = first_surface(c, below, 0.0, &tb);
+  }
   const double support = out->surface >= 0 ? p_.surfaces[out->surface].height : 0.0;
   const Eigen::Vector3d foot = c + t * foot_dir;
   const Eigen::Vector2d horiz(foot.x() - c.x(), foot.y() - c.y());
@@ -120,20 +131,38 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   if (!(top_h > 1e-9)) return false;
   const double far = (centre - Eigen::Vector2d(c.x(), c.y())).norm();
   const double h = c.z() + top_dir.z() * far / top_h;
-  // Taller above a table top than anything lying on it: someone standing behind the table,
-  // their legs hidden by it. Placed by the head, as a person whose feet are out of view.
-  if (support > 0 && h - support > p_.classes.bag_max_height) {
-    if (place_by_head(box, out)) return true;
+  // Taller above a table top than anything lying on it, or cut off below by the table's far
+  // edge with the top out of view or as high as a person's at that edge: someone standing
+  // behind the table, their legs hidden by it. Placed by the head, as a person whose feet are
+  // out of view.
+  bool behind_surface = support > 0 && h - support > p_.classes.bag_max_height;
+  if (hidden_by >= 0) {
+    const double edge = far_edge(p_.surfaces[hidden_by], Eigen::Vector2d(c.x(), c.y()), along);
+    const double h_edge = c.z() + top_dir.z() * edge / top_h;  // the top's height were it at the edge
+    behind_surface = box.y <= 0 || h_edge >= p_.classes.person_min_height;
+    if (behind_surface) out->surface = hidden_by;
+  }
+  if (behind_surface) {
+    Placement head;
+    if (place_by_head(box, &head) &&
+        (hidden_by < 0 || std::hypot(head.x - c.x(), head.y - c.y()) >=
+                              far_edge(p_.surfaces[hidden_by], Eigen::Vector2d(c.x(), c.y()), along))) {
+      *out = head;
+      return true;
+    }
     // The head out of view as well: they stand behind the table, not on it. The line of sight
     // through the bottom leaves the table's outline at its far edge; the footprint's near side
     // is there at the closest, so its centre is half a footprint beyond.
     const Surface& table = p_.surfaces[out->surface];
     const double exit = far_edge(table, Eigen::Vector2d(c.x(), c.y()), along);
-    const Eigen::Vector2d behind =
-        exit > dist ? Eigen::Vector2d(c.x(), c.y()) + (exit + 0.5 * std::min(w, p_.max_footprint)) * along : centre;
-    out->x = behind.x();
-    out->y = behind.y();
-    out->width = w;
+    // Cut off by the edge, the width is measured there (the floor beyond is farther).
+    const double w_at = hidden_by >= 0 && exit > 1e-6 ? w * exit / dist : w;
+    const Eigen::Vector2d at = exit > dist || (hidden_by >= 0 && exit > 1e-6)
+                                   ? Eigen::Vector2d(c.x(), c.y()) + (exit + 0.5 * std::min(w_at, p_.max_footprint)) * along
+                                   : centre;
+    out->x = at.x();
+    out->y = at.y();
+    out->width = w_at;
     out->height = out->own_height = p_.cut_person_height;
     out->support = 0;
     out->surface = -1;
@@ -184,24 +213,26 @@ bool MserTracker::box_to_map(const cv::Rect& box, double* x, double* y, double* 
   return true;
 }
 
-void MserTracker::find_start_objects() {
+void MserTracker::find_start_objects(const cv::Mat& bgr) {
   // Background regions lying on a surface, the size of something one could pick up: the
   // objects present when the model was learned (the chapter's "present at the start").
   start_objects_.clear();
   const double r3 = std::sqrt(3.0);  // a uniform patch's side is sqrt(3) times its second-moment width
   const auto model = system_.background_model();
+  const cv::Rect image(0, 0, bgr.cols, bgr.rows);
   std::vector<Placement> placed(model.size());
+  std::vector<cv::Rect> boxes(model.size());
   std::vector<char> ok(model.size(), 0);
   // Each surface's own colour: that of the largest learned region lying on it (the table top).
   std::vector<double> surface_area(p_.surfaces.size(), 0);
   std::vector<cv::Vec3f> surface_colour(p_.surfaces.size());
   for (size_t i = 0; i < model.size(); ++i) {
     const auto& [centroid, w2, h2, colour] = model[i];
-    const cv::Rect box(cv::Point(static_cast<int>(std::lround(centroid.x - 0.5 * r3 * w2)),
-                                 static_cast<int>(std::lround(centroid.y - 0.5 * r3 * h2))),
-                       cv::Point(static_cast<int>(std::lround(centroid.x + 0.5 * r3 * w2)),
-                                 static_cast<int>(std::lround(centroid.y + 0.5 * r3 * h2))));
-    if (!place(box, &placed[i]) || placed[i].by_head || placed[i].surface < 0) continue;
+    boxes[i] = cv::Rect(cv::Point(static_cast<int>(std::lround(centroid.x - 0.5 * r3 * w2)),
+                                  static_cast<int>(std::lround(centroid.y - 0.5 * r3 * h2))),
+                        cv::Point(static_cast<int>(std::lround(centroid.x + 0.5 * r3 * w2)),
+                                  static_cast<int>(std::lround(centroid.y + 0.5 * r3 * h2))));
+    if (!place(boxes[i], &placed[i]) || placed[i].by_head || placed[i].surface < 0) continue;
     // The region's centroid must look onto that surface's top too (a floor patch seen just past
     // the table's far edge has its bottom there, not its middle).
     if (surface_under(centroid.x, centroid.y) != placed[i].surface) continue;
@@ -211,6 +242,13 @@ void MserTracker::find_start_objects() {
       surface_colour[placed[i].surface] = colour;
     }
   }
+  // The parts: each kept region's pixels, those of its colour inside its box.
+  struct Part {
+    cv::Rect box;
+    cv::Mat mask;  // CV_8U over box
+    Placement place;
+  };
+  std::vector<Part> parts;
   for (size_t i = 0; i < model.size(); ++i) {
     if (!ok[i]) continue;
     const Placement& pl = placed[i];
@@ -218,11 +256,95 @@ void MserTracker::find_start_objects() {
       continue;
     // A patch of the surface's own colour is the surface, not something lying on it.
     if (cv::norm(std::get<3>(model[i]) - surface_colour[pl.surface]) <= p_.system.bg_colour) continue;
-    bool near = false;  // the parts of one object (a laptop's screen and keys) are one
-    for (const StartObject& o : start_objects_) near = near || std::hypot(o.place.x - pl.x, o.place.y - pl.y) < p_.start_merge;
-    if (near) continue;
-    start_objects_.push_back({static_cast<int>(start_objects_.size()) + 1, pl});
+    Part part{boxes[i] & image, {}, pl};
+    if (part.box.empty()) continue;
+    part.mask = cv::Mat::zeros(part.box.size(), CV_8U);
+    const cv::Vec3f colour = std::get<3>(model[i]);
+    for (int y = 0; y < part.box.height; ++y)
+      for (int x = 0; x < part.box.width; ++x) {
+        const cv::Vec3b px = bgr.at<cv::Vec3b>(part.box.y + y, part.box.x + x);
+        const cv::Vec3f d(px[0] - colour[0], px[1] - colour[1], px[2] - colour[2]);
+        if (cv::norm(d) <= p_.system.bg_colour) part.mask.at<uint8_t>(y, x) = 255;
+      }
+    if (cv::countNonZero(part.mask) > 0) parts.push_back(std::move(part));
   }
+  // One object's parts (a laptop's screen and keys) touch in the image, or lie close on the
+  // table: joined (union-find over the parts).
+  std::vector<int> root(parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) root[i] = static_cast<int>(i);
+  auto find = [&](int a) {
+    while (root[a] != a) a = root[a] = root[root[a]];
+    return a;
+  };
+  const int g = p_.start_touch_px;
+  const cv::Mat grow = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * g + 1, 2 * g + 1));
+  for (size_t i = 0; i < parts.size(); ++i)
+    for (size_t j = i + 1; j < parts.size(); ++j) {
+      bool join = std::hypot(parts[i].place.x - parts[j].place.x, parts[i].place.y - parts[j].place.y) < p_.start_merge;
+      const cv::Rect a = cv::Rect(parts[i].box.x - g, parts[i].box.y - g, parts[i].box.width + 2 * g, parts[i].box.height + 2 * g);
+      if (!join && (a & parts[j].box).area() > 0) {
+        const cv::Rect u = (a | parts[j].box) & image;
+        cv::Mat mi = cv::Mat::zeros(u.size(), CV_8U), mj = cv::Mat::zeros(u.size(), CV_8U);
+        parts[i].mask.copyTo(mi(parts[i].box - u.tl()));
+        parts[j].mask.copyTo(mj(parts[j].box - u.tl()));
+        cv::dilate(mi, mi, grow);
+        join = cv::countNonZero(mi & mj) > 0;
+      }
+      if (join) root[find(static_cast<int>(i))] = find(static_cast<int>(j));
+    }
+  std::map<int, std::vector<int>> groups;  // by root, in the order of their first part
+  std::vector<int> order;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const int r = find(static_cast<int>(i));
+    if (!groups.count(r)) order.push_back(r);
+    groups[r].push_back(static_cast<int>(i));
+  }
+  for (int r : order) {
+    StartObject o;
+    for (int i : groups[r]) o.box = o.box.area() > 0 ? (o.box | parts[i].box) : parts[i].box;
+    o.mask = cv::Mat::zeros(o.box.size(), CV_8U);
+    for (int i : groups[r]) o.mask(parts[i].box - o.box.tl()) |= parts[i].mask;
+    o.picture = bgr(o.box).clone();
+    o.pixels = cv::countNonZero(o.mask);
+    // Placed by the whole object's box (its nearest part's bottom), else by its first part.
+    if (!place(o.box, &o.place) || o.place.by_head || o.place.surface < 0) o.place = parts[groups[r].front()].place;
+    o.index = static_cast<int>(start_objects_.size()) + 1;
+    start_objects_.push_back(std::move(o));
+  }
+}
+
+std::map<int64_t, int64_t> MserTracker::hands_on_start_objects(const cv::Mat& bgr) const {
+  // A hand on an object lying there since the start: its pixels change colour (something in
+  // front of them) and are foreground of an object that is not itself lying still. Someone
+  // standing behind it leaves its pixels as they were.
+  std::map<int64_t, int64_t> hands;
+  const cv::Mat& fg = system_.foreground();
+  const auto objects = system_.objects();
+  for (const StartObject& so : start_objects_) {
+    std::vector<cv::Point> changed;
+    for (int y = 0; y < so.box.height; ++y)
+      for (int x = 0; x < so.box.width; ++x) {
+        if (!so.mask.at<uint8_t>(y, x) || !fg.at<uint8_t>(so.box.y + y, so.box.x + x)) continue;
+        const cv::Vec3b a = bgr.at<cv::Vec3b>(so.box.y + y, so.box.x + x), b = so.picture.at<cv::Vec3b>(y, x);
+        const int d = std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+        if (d > p_.hand_change) changed.emplace_back(so.box.x + x, so.box.y + y);
+      }
+    if (static_cast<int>(changed.size()) < std::max<double>(p_.hand_min_pixels, p_.hand_min_share * so.pixels)) continue;
+    // Whose: the object whose box holds most of the changed pixels, not a bag (what lies there).
+    int64_t best = -1;
+    size_t best_n = 0;
+    for (const ImageObject& o : objects) {
+      const int64_t sys_id = o.id + id_offset_;
+      const auto al = alias_.find(sys_id);
+      const int64_t id = al != alias_.end() ? al->second : sys_id;
+      if (const auto h = history_.find(id); h != history_.end() && h->second.cls == TrackClass::kBag) continue;
+      size_t n = 0;
+      for (const cv::Point& pt : changed) n += o.box.contains(pt);
+      if (n > best_n) best_n = n, best = id;
+    }
+    if (best >= 0 && !hands.count(best)) hands[best] = kStartIds + so.index;
+  }
+  return hands;
 }
 
 Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
@@ -239,6 +361,12 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   std::string error;
   if (!system_.process(frame.left, &error)) return bad_input("", 0, "frame", at + ": " + error);
   last_stamp_ = frame.stamp_ns;
+  // The objects present at the start, found once the background is learned.
+  if (!system_.learning() && !start_found_) {
+    find_start_objects(frame.left);
+    start_found_ = true;
+  }
+  const std::map<int64_t, int64_t> hands = hands_on_start_objects(frame.left);
 
   std::vector<Track> out;
   auto report = [&](int64_t id, TrackClass cls, double x, double y, double w, double h, double confidence, bool measured) {
@@ -318,6 +446,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     Track* t = report(id, cls, x, y, w, h, std::min(1.0, 0.5 + 0.05 * o.age), true);
     t->vx = hist.vx;
     t->vy = hist.vy;
+    if (const auto hand = hands.find(id); hand != hands.end() && cls != TrackClass::kBag) t->hand_on = static_cast<int>(hand->second);
   }
   // Objects unseen this frame keep their history for a while; a still bag is held where it
   // was (not measured: a walker in front hides it, or its blob merged with theirs).
@@ -339,12 +468,8 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     if (taken_over) continue;
     report(id, hist.cls, hist.x, hist.y, hist.width, hist.height, 0.3, false);
   }
-  // The objects present at the start, found once the background is learned, reported as
-  // lying where they were (a still bag each: the rules judge who handles them).
-  if (!system_.learning() && !start_found_) {
-    find_start_objects();
-    start_found_ = true;
-  }
+  // The objects present at the start, reported as lying where they were (a still bag each:
+  // the rules judge who handles them).
   for (const StartObject& o : start_objects_)
     report(kStartIds + o.index, TrackClass::kBag, o.place.x, o.place.y, o.place.width, o.place.height, 0.5, true);
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });

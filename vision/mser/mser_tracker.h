@@ -51,10 +51,22 @@ struct MserTrackerParams {
   std::vector<Surface> surfaces;  // what an object's bottom may stand on besides the floor
   double surface_margin = 0.1;    // m around a surface's outline that still counts as on it
   double max_footprint = 0.5;     // m: the deepest footprint (a person's), whatever the box's width
+  // A box whose bottom lies on a surface's far edge (this many rows below it look onto the
+  // surface) is cut off by the surface, not standing where its bottom ray meets the floor.
+  double edge_rows = 3;
   // Objects present at the start: background regions on a surface at least this wide (m),
   // parts closer than start_merge (m) one object.
   double start_min_width = 0.1;
   double start_merge = 0.35;
+  int start_touch_px = 2;  // ...and parts whose pixels come this close in the image
+  // Hands (Track::hand_on): an object present at the start is handled by the object whose box
+  // holds most of its pixels that are foreground and changed colour from how it looked when
+  // found (L1 over the channels above hand_change), once there are at least hand_min_pixels
+  // and hand_min_share of its pixels (a hand or sleeve in front of it; someone behind it
+  // changes none of its pixels).
+  int hand_change = 60;
+  int hand_min_pixels = 12;
+  double hand_min_share = 0.02;
   // Feet cut off by the image's bottom edge: a box at least `cut_min_aspect` times as tall as
   // wide is placed as a person this tall (m) by its top; 0: not placed.
   double cut_person_height = 1.7;
@@ -78,6 +90,7 @@ class MserTracker : public Tracker {
 
   std::string_view name() const override { return "mser"; }
   bool needs_depth() const override { return false; }
+  bool sees_hands() const override { return true; }
   Result<std::vector<Track>> process(const StereoFrame& frame) override;
   void reset() override;
   cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const override;
@@ -120,11 +133,17 @@ class MserTracker : public Tracker {
   // The first surface the ray c + t dir (dir pointing down) meets within `margin` of its
   // outline, and its t (-1 and the floor's t when none).
   int first_surface(const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double margin, double* t) const;
-  void find_start_objects();
+  void find_start_objects(const cv::Mat& bgr);
   struct StartObject {
     int index = 0;
     Placement place;
+    cv::Rect box;     // in the image
+    cv::Mat mask;     // CV_8U over box: its pixels
+    cv::Mat picture;  // CV_8UC3 over box: how it looked when found
+    int pixels = 0;
   };
+  // Track id -> the start object's track id its hand is on, this frame (see hand_change).
+  std::map<int64_t, int64_t> hands_on_start_objects(const cv::Mat& bgr) const;
   std::vector<StartObject> start_objects_;
   bool start_found_ = false;
   StereoCameraModel camera_;
