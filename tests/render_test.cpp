@@ -251,17 +251,32 @@ TEST(RenderScenario, SameFrameTwiceIsBitIdentical) {
   }
 }
 
-TEST(RenderScenario, PersonAndBagAreLabelledWherePlaced) {
-  auto w = world_at("dis_left_bag.yaml", 10.0);
-  ASSERT_TRUE(w);
-  const CameraSpec* spec = find_camera(*w, "cam_corridor");
+// A shipped scenario's world at `seconds`, rendered from one of its cameras.
+struct Shot {
+  std::unique_ptr<World> world;
+  vision::StereoCameraModel cam;
+  RenderScene scene;
+  vision::StereoFrame frame;
+};
+void render_at(const std::string& scenario, double seconds, const std::string& camera, Shot* out) {
+  out->world = world_at(scenario, seconds);
+  ASSERT_TRUE(out->world);
+  const CameraSpec* spec = find_camera(*out->world, camera);
   ASSERT_TRUE(spec);
-  const auto cam = camera_model(*spec);
+  out->cam = camera_model(*spec);
   auto r = make_renderer(spec->width, spec->height);
   ASSERT_TRUE(r);
-  const RenderScene scene = build_render_scene(*w, scene_options_for(*w, spec));
-  vision::StereoFrame f;
-  ASSERT_TRUE(r->render(scene, cam, &f).ok());
+  out->scene = build_render_scene(*out->world, scene_options_for(*out->world, spec));
+  ASSERT_TRUE(r->render(out->scene, out->cam, &out->frame).ok());
+}
+
+TEST(RenderScenario, PersonAndBagAreLabelledWherePlaced) {
+  Shot shot;
+  ASSERT_NO_FATAL_FAILURE(render_at("dis_left_bag.yaml", 10.0, "cam_corridor", &shot));
+  const World* w = shot.world.get();
+  const auto& cam = shot.cam;
+  const RenderScene& scene = shot.scene;
+  const vision::StereoFrame& f = shot.frame;
   // Label order: robots, people, objects.
   const int person_label = 1 + static_cast<int>(w->robots().size());
   ASSERT_EQ(scene.label_ids.at(person_label), "A");
@@ -271,7 +286,7 @@ TEST(RenderScenario, PersonAndBagAreLabelledWherePlaced) {
   const Vector3d chest(a.pose.x, a.pose.y, 0.65 * a.spec.height);
   Eigen::Vector2d px;
   ASSERT_TRUE(cam.project_map(chest, &px));
-  ASSERT_TRUE(px.x() >= 0 && px.x() < spec->width && px.y() >= 0 && px.y() < spec->height) << px.transpose();
+  ASSERT_TRUE(px.x() >= 0 && px.x() < f.labels.cols && px.y() >= 0 && px.y() < f.labels.rows) << px.transpose();
   const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
   EXPECT_EQ(f.labels.at<int32_t>(v, u), person_label);
   const double z = (cam.optical_from_map() * chest).z();
@@ -284,16 +299,12 @@ TEST(RenderScenario, PersonAndBagAreLabelledWherePlaced) {
 // earlier, walking to it, B's arms hang and nothing of B is there at the hand's depth.
 TEST(RenderScenario, APersonHandlingAnObjectReachesForIt) {
   for (const double at : {21.5, 19.8}) {
-    auto w = world_at("dis_lab_unauthorised.yaml", at);
-    ASSERT_TRUE(w);
-    const CameraSpec* spec = find_camera(*w, "cam_lab");
-    ASSERT_TRUE(spec);
-    const auto cam = camera_model(*spec);
-    auto r = make_renderer(spec->width, spec->height);
-    ASSERT_TRUE(r);
-    const RenderScene scene = build_render_scene(*w, scene_options_for(*w, spec));
-    vision::StereoFrame f;
-    ASSERT_TRUE(r->render(scene, cam, &f).ok());
+    Shot shot;
+    ASSERT_NO_FATAL_FAILURE(render_at("dis_lab_unauthorised.yaml", at, "cam_lab", &shot));
+    const World* w = shot.world.get();
+    const auto& cam = shot.cam;
+    const RenderScene& scene = shot.scene;
+    const vision::StereoFrame& f = shot.frame;
     const PersonEntity& b = w->people()[0];
     const ObjectEntity* laptop = nullptr;
     for (const auto& o : w->objects()) laptop = o.spec.id == "laptop" ? &o : laptop;
