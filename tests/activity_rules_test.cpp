@@ -550,6 +550,14 @@ TEST(ActivityRules, WithHandsSeenAZoneObjectIsHandledByTheHandOnIt) {
   EXPECT_EQ(ev[0].people, std::vector<int>{2});
   EXPECT_EQ(ev[0].object_track, 20);
   EXPECT_NEAR(seconds(ev[0].stamp_ns), 37.0, 0.1);
+  // The book's track not reported while the hand covers it: the hand still names it.
+  Actor hidden_book = book;
+  hidden_book.seen = [](double t) { return t < 35.5 || t > 38.5; };
+  ActivityRules hr = make_rules(p);
+  const auto hev = run(hr, 50, {hidden_book, b, c});
+  ASSERT_EQ(hev.size(), 1u);
+  EXPECT_EQ(hev[0].people, std::vector<int>{2});
+  EXPECT_NEAR(seconds(hev[0].stamp_ns), 37.0, 0.1);
 }
 
 TEST(ActivityRules, BadInputIsAnErrorNamingTheKey) {

@@ -305,6 +305,62 @@ TEST(MserTracker, AHandOverAnObjectPresentAtTheStartIsSeenAndSomeoneBehindItIsNo
   EXPECT_GE(hands, 8) << "the hand seen on the laptop";
 }
 
+// The same for a thing put on the table during the run: a dark book appears on the learned
+// table and lies there (a still bag track); a figure behind it has no hand on it, an arm over it
+// names the book's track.
+TEST(MserTracker, AHandOverAThingPutDownDuringTheRunIsSeenAndSomeoneBehindItIsNot) {
+  const StereoCameraModel cam = corridor_camera();
+  MserTrackerParams p;
+  p.system.min_object_area = 0.0008;  // the book is about 90 pixels of this 320x240 view
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});
+  auto t = MserTracker::create(cam, p);
+  ASSERT_TRUE(t.ok());
+  const cv::Mat empty = table_scene(cam);
+  std::vector<cv::Point> book;
+  for (const auto& [x, y] : {std::pair{5.15, -0.65}, std::pair{5.65, -0.65}, std::pair{5.65, -0.35}, std::pair{5.15, -0.35}}) {
+    Eigen::Vector2d px;
+    ASSERT_TRUE(cam.project_map(Eigen::Vector3d(x, y, 0.8), &px));
+    book.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
+  }
+  const cv::Rect bb = cv::boundingRect(book);
+  const cv::Point centre(bb.x + bb.width / 2, bb.y + bb.height / 2);
+  const cv::Rect body(centre.x - 22, 0, 44, bb.y + 4);
+  auto scene = [&](bool figure, bool hand) {
+    cv::Mat img = empty.clone();
+    if (figure) cv::rectangle(img, body, cv::Scalar(60, 160, 50), cv::FILLED);
+    cv::fillConvexPoly(img, book, cv::Scalar(30, 30, 30));
+    if (hand) cv::line(img, cv::Point(body.x + 6, body.br().y - 8), centre, cv::Scalar(110, 150, 215), 6);
+    return img;
+  };
+  int64_t k = 0;
+  auto step = [&](const cv::Mat& img) {
+    StereoFrame f;
+    f.index = k;
+    f.stamp_ns = ++k * 66'666'667LL;
+    f.left = img;
+    auto tracks = t->process(f);
+    EXPECT_TRUE(tracks.ok()) << tracks.error().str();
+    return tracks.ok() ? *tracks : std::vector<Track>{};
+  };
+  for (int i = 0; i < 25; ++i) step(empty);
+  int book_id = 0;
+  for (int i = 0; i < 20; ++i)
+    for (const Track& tr : step(scene(false, false)))
+      if (tr.id < MserTracker::kStartIds && tr.cls == TrackClass::kBag) book_id = tr.id;
+  ASSERT_NE(book_id, 0) << "the book, a still bag on the table";
+  for (int i = 0; i < 10; ++i)
+    for (const Track& tr : step(scene(true, false))) EXPECT_EQ(tr.hand_on, 0) << "behind the book, frame " << i;
+  int hands = 0;
+  for (int i = 0; i < 10; ++i)
+    for (const Track& tr : step(scene(true, true)))
+      if (tr.hand_on != 0) {
+        EXPECT_EQ(tr.hand_on, book_id);
+        EXPECT_NE(tr.id, book_id);
+        ++hands;
+      }
+  EXPECT_GE(hands, 8) << "the hand seen on the book";
+}
+
 TEST(MserTracker, BadFramesAreRefusedWithTheReason) {
   auto t = MserTracker::create(corridor_camera());
   ASSERT_TRUE(t.ok());

@@ -156,9 +156,10 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
       p.confidence = t.confidence;
       p.speed = std::hypot(t.vx, t.vy);
       p.vx = t.vx, p.vy = t.vy;
-      p.hand_on = 0;
-      if (const auto h = by_id.find(t.hand_on); t.hand_on != 0 && h != by_id.end() && h->second != &t)
-        p.hand_on = t.hand_on, p.hand_x = h->second->x, p.hand_y = h->second->y;
+      p.hand_on = t.hand_on != t.id ? t.hand_on : 0;
+      p.hand_seen_at = false;
+      if (const auto h = by_id.find(p.hand_on); p.hand_on != 0 && h != by_id.end())
+        p.hand_x = h->second->x, p.hand_y = h->second->y, p.hand_seen_at = true;
     } else if ((t.cls == TrackClass::kBag || (t.cls == TrackClass::kUnknown && in_handling_zone(t.x, t.y))) &&
                std::hypot(t.vx, t.vy) <= p_.object_still_speed) {
       bags.push_back(&t);
@@ -504,10 +505,15 @@ void ActivityRules::rule_touch(int64_t now, std::vector<Event>* out) {
     if (p_.hands_seen) {
       // The marked object the hand is on: the nearest one to the handled track, within
       // object_match_distance of it.
+      // Where the handled thing is: its track this tick, else the object model it last matched.
+      bool known = p.hand_seen_at;
+      double hx = p.hand_x, hy = p.hand_y;
+      for (const ObjectModel& o : objects_)
+        if (!known && p.hand_on != 0 && o.track == p.hand_on) hx = o.x, hy = o.y, known = true;
       size_t w_on = 0;
       double wd = std::numeric_limits<double>::infinity();
-      for (size_t i = 0; p.hand_on != 0 && i < p_.watched.size(); ++i) {
-        const double d = dist(p.hand_x, p.hand_y, p_.watched[i].position.x, p_.watched[i].position.y);
+      for (size_t i = 0; known && i < p_.watched.size(); ++i) {
+        const double d = dist(hx, hy, p_.watched[i].position.x, p_.watched[i].position.y);
         if (d < wd) wd = d, w_on = i;
       }
       const bool on = wd <= p_.object_match_distance;
@@ -586,7 +592,8 @@ void ActivityRules::rule_zone_touch(int64_t now, std::vector<Event>* out) {
       const double d = !p_.hands_seen ? dist(p.x, p.y, o.x, o.y)
                        : p.hand_on == 0 ? std::numeric_limits<double>::infinity()
                        : o.track == p.hand_on ? 0.0
-                                              : dist(p.hand_x, p.hand_y, o.x, o.y);
+                       : p.hand_seen_at       ? dist(p.hand_x, p.hand_y, o.x, o.y)
+                                              : std::numeric_limits<double>::infinity();
       if (d < nd) nd = d, nearest = &o;
     }
     if (p_.hands_seen) {

@@ -175,7 +175,8 @@ class ActivityRules {
     double speed = 0;  // m/s, as the tracker gives it
     double vx = 0, vy = 0;
     int hand_on = 0;                  // the track their hand is on this tick (0: none)
-    double hand_x = 0, hand_y = 0;    // ...and where that track is
+    double hand_x = 0, hand_y = 0;    // ...and where that track is this tick
+    bool hand_seen_at = false;        // ...if it is among this tick's tracks
   };
   // A person track seen on this tick that has lasted person_confirm_time: a single-frame false
   // detection owns nothing, takes nothing and hides nothing.

@@ -1,6 +1,7 @@
 #include "vision/mser/mser_tracker.h"
 
 #include <limits>
+#include <set>
 
 #include <algorithm>
 #include <climits>
@@ -256,16 +257,23 @@ void MserTracker::find_start_objects(const cv::Mat& bgr) {
       continue;
     // A patch of the surface's own colour is the surface, not something lying on it.
     if (cv::norm(std::get<3>(model[i]) - surface_colour[pl.surface]) <= p_.system.bg_colour) continue;
-    Part part{boxes[i] & image, {}, pl};
+    // Its pixels: those of this frame's region that it matches (the nearest centroid, of its
+    // colour), not a colour test over its box (a grey laptop before a grey floor would take in
+    // floor pixels, which someone walking behind it changes).
+    const auto& [centroid, w2, h2, colour] = model[i];
+    const Segmentation& seg = system_.segmentation();
+    int region = -1;
+    double best = 3.0 + 0.1 * (w2 + h2);
+    for (size_t r = 0; r < seg.regions.size(); ++r) {
+      const Region& reg = seg.regions[r];
+      if (reg.size < p_.system.segmenter.min_size || cv::norm(reg.mean - colour) > p_.system.bg_colour) continue;
+      const double d = cv::norm(reg.centroid - centroid);
+      if (d < best) best = d, region = static_cast<int>(r);
+    }
+    if (region < 0) continue;
+    Part part{seg.regions[region].bbox & image, {}, pl};
     if (part.box.empty()) continue;
-    part.mask = cv::Mat::zeros(part.box.size(), CV_8U);
-    const cv::Vec3f colour = std::get<3>(model[i]);
-    for (int y = 0; y < part.box.height; ++y)
-      for (int x = 0; x < part.box.width; ++x) {
-        const cv::Vec3b px = bgr.at<cv::Vec3b>(part.box.y + y, part.box.x + x);
-        const cv::Vec3f d(px[0] - colour[0], px[1] - colour[1], px[2] - colour[2]);
-        if (cv::norm(d) <= p_.system.bg_colour) part.mask.at<uint8_t>(y, x) = 255;
-      }
+    part.mask = seg.labels(part.box) == region;
     if (cv::countNonZero(part.mask) > 0) parts.push_back(std::move(part));
   }
   // One object's parts (a laptop's screen and keys) touch in the image, or lie close on the
@@ -302,10 +310,11 @@ void MserTracker::find_start_objects(const cv::Mat& bgr) {
   for (int r : order) {
     StartObject o;
     for (int i : groups[r]) o.box = o.box.area() > 0 ? (o.box | parts[i].box) : parts[i].box;
-    o.mask = cv::Mat::zeros(o.box.size(), CV_8U);
-    for (int i : groups[r]) o.mask(parts[i].box - o.box.tl()) |= parts[i].mask;
-    o.picture = bgr(o.box).clone();
-    o.pixels = cv::countNonZero(o.mask);
+    o.picture.box = o.box;
+    o.picture.mask = cv::Mat::zeros(o.box.size(), CV_8U);
+    for (int i : groups[r]) o.picture.mask(parts[i].box - o.box.tl()) |= parts[i].mask;
+    o.picture.colours = bgr(o.box).clone();
+    o.picture.pixels = cv::countNonZero(o.picture.mask);
     // Placed by the whole object's box (its nearest part's bottom), else by its first part.
     if (!place(o.box, &o.place) || o.place.by_head || o.place.surface < 0) o.place = parts[groups[r].front()].place;
     o.index = static_cast<int>(start_objects_.size()) + 1;
@@ -313,23 +322,25 @@ void MserTracker::find_start_objects(const cv::Mat& bgr) {
   }
 }
 
-std::map<int64_t, int64_t> MserTracker::hands_on_start_objects(const cv::Mat& bgr) const {
-  // A hand on an object lying there since the start: its pixels change colour (something in
-  // front of them) and are foreground of an object that is not itself lying still. Someone
-  // standing behind it leaves its pixels as they were.
+std::map<int64_t, int64_t> MserTracker::hands_on_objects(const cv::Mat& bgr, std::set<int64_t>* handled) const {
+  // A hand on a thing lying there: its pixels change colour (something in front of them) and
+  // are foreground of an object that is not itself lying there. Someone standing behind it
+  // leaves its pixels as they were.
   std::map<int64_t, int64_t> hands;
   const cv::Mat& fg = system_.foreground();
   const auto objects = system_.objects();
-  for (const StartObject& so : start_objects_) {
+  auto judge = [&](const Picture& pic, int64_t self) {
+    if (pic.pixels <= 0) return;
     std::vector<cv::Point> changed;
-    for (int y = 0; y < so.box.height; ++y)
-      for (int x = 0; x < so.box.width; ++x) {
-        if (!so.mask.at<uint8_t>(y, x) || !fg.at<uint8_t>(so.box.y + y, so.box.x + x)) continue;
-        const cv::Vec3b a = bgr.at<cv::Vec3b>(so.box.y + y, so.box.x + x), b = so.picture.at<cv::Vec3b>(y, x);
+    for (int y = 0; y < pic.box.height; ++y)
+      for (int x = 0; x < pic.box.width; ++x) {
+        if (!pic.mask.at<uint8_t>(y, x) || !fg.at<uint8_t>(pic.box.y + y, pic.box.x + x)) continue;
+        const cv::Vec3b a = bgr.at<cv::Vec3b>(pic.box.y + y, pic.box.x + x), b = pic.colours.at<cv::Vec3b>(y, x);
         const int d = std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
-        if (d > p_.hand_change) changed.emplace_back(so.box.x + x, so.box.y + y);
+        if (d > p_.hand_change) changed.emplace_back(pic.box.x + x, pic.box.y + y);
       }
-    if (static_cast<int>(changed.size()) < std::max<double>(p_.hand_min_pixels, p_.hand_min_share * so.pixels)) continue;
+    if (static_cast<int>(changed.size()) < std::max<double>(p_.hand_min_pixels, p_.hand_min_share * pic.pixels)) return;
+    handled->insert(self);
     // Whose: the object whose box holds most of the changed pixels, not a bag (what lies there).
     int64_t best = -1;
     size_t best_n = 0;
@@ -337,13 +348,18 @@ std::map<int64_t, int64_t> MserTracker::hands_on_start_objects(const cv::Mat& bg
       const int64_t sys_id = o.id + id_offset_;
       const auto al = alias_.find(sys_id);
       const int64_t id = al != alias_.end() ? al->second : sys_id;
+      if (id == self) continue;
       if (const auto h = history_.find(id); h != history_.end() && h->second.cls == TrackClass::kBag) continue;
       size_t n = 0;
       for (const cv::Point& pt : changed) n += o.box.contains(pt);
       if (n > best_n) best_n = n, best = id;
     }
-    if (best >= 0 && !hands.count(best)) hands[best] = kStartIds + so.index;
-  }
+    if (best >= 0 && !hands.count(best)) hands[best] = self;
+  };
+  for (const StartObject& so : start_objects_) judge(so.picture, kStartIds + so.index);
+  // Things put down during the run: still bags (on a table or the floor) seen as they lay.
+  for (const auto& [id, h] : history_)
+    if (h.cls == TrackClass::kBag) judge(h.picture, id);
   return hands;
 }
 
@@ -366,7 +382,8 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     find_start_objects(frame.left);
     start_found_ = true;
   }
-  const std::map<int64_t, int64_t> hands = hands_on_start_objects(frame.left);
+  std::set<int64_t> handled;  // things a hand is seen on this frame
+  const std::map<int64_t, int64_t> hands = hands_on_objects(frame.left, &handled);
 
   std::vector<Track> out;
   auto report = [&](int64_t id, TrackClass cls, double x, double y, double w, double h, double confidence, bool measured) {
@@ -417,6 +434,14 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     if (auto it = history_.find(id); it != history_.end()) hist = it->second;
     // Velocity: the footprint's displacement over the last `velocity_window` seconds (a pixel
     // of the foot row is several centimetres, so frame-to-frame differences are mostly noise).
+    // A person's jump no one walks (the box's bottom now another part of the blob: a table's
+    // edge, a thing merged in) restarts the velocity rather than reading the jump as motion. (A
+    // bag's jump keeps it: its blob merged with someone's, and it is not lying still there.)
+    if (!hist.trail.empty() && hist.cls != TrackClass::kBag) {
+      const Fix& last = hist.trail.back();
+      const double dt = (frame.stamp_ns - last.stamp_ns) * 1e-9;
+      if (std::hypot(x - last.x, y - last.y) > p_.max_speed * dt + p_.jump_slack) hist.trail.clear();
+    }
     hist.trail.push_back({frame.stamp_ns, x, y});
     while (hist.trail.size() > 2 && (frame.stamp_ns - hist.trail[1].stamp_ns) * 1e-9 >= p_.velocity_window)
       hist.trail.pop_front();
@@ -427,9 +452,28 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       hist.vy = span > 0 ? (y - first.y) / span : 0.0;
     }
     for (auto& [c, v] : hist.votes) v *= p_.class_vote_decay;
-    // Classed by its own height: a book on a table is as low as a bag on the floor.
-    hist.votes[pl.support > 0 ? classify_track(std::max(p_.classes.bag_min_height, pl.own_height), w, p_.classes)
-                              : classify_track(h, w, p_.classes)] += 1.0;
+    // Classed by its own height: a book on a table is as low as a bag on the floor. A box cut
+    // off by the image's top edge (not placed by a head) gives only a lower bound of the
+    // height: a person's if it reaches one, else no vote (a walker whose head is out of view
+    // is not short).
+    if (o.box.y > 0 || pl.by_head)
+      hist.votes[pl.support > 0 ? classify_track(std::max(p_.classes.bag_min_height, pl.own_height), w, p_.classes)
+                                : classify_track(h, w, p_.classes)] += 1.0;
+    else if (pl.own_height >= p_.classes.person_min_height)
+      hist.votes[TrackClass::kPerson] += 1.0;
+    // A still bag seen on its own, no hand on it, its box not grown (merged with someone):
+    // how it looks now is what a hand on it will be judged against.
+    const double speed = std::hypot(hist.vx, hist.vy);
+    if (hist.cls == TrackClass::kBag && speed <= p_.hold_speed && hist.frames + 1 >= p_.hold_min_frames &&
+        !handled.count(id) && (hist.picture.pixels == 0 || o.box.area() <= 1.5 * hist.picture.box.area())) {
+      const cv::Rect b = o.box & cv::Rect(0, 0, frame.left.cols, frame.left.rows);
+      hist.picture.box = b;
+      hist.picture.mask = system_.foreground()(b).clone();
+      hist.picture.colours = frame.left(b).clone();
+      hist.picture.pixels = cv::countNonZero(hist.picture.mask);
+    } else if (hist.cls != TrackClass::kBag || speed > p_.hold_speed) {
+      hist.picture = Picture{};  // carried or moving: no longer lying where it was seen
+    }
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;

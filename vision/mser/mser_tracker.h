@@ -26,6 +26,7 @@
 
 #include <deque>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -65,13 +66,17 @@ struct MserTrackerParams {
   // and hand_min_share of its pixels (a hand or sleeve in front of it; someone behind it
   // changes none of its pixels).
   int hand_change = 60;
-  int hand_min_pixels = 12;
-  double hand_min_share = 0.02;
+  int hand_min_pixels = 20;
+  double hand_min_share = 0.01;
   // Feet cut off by the image's bottom edge: a box at least `cut_min_aspect` times as tall as
   // wide is placed as a person this tall (m) by its top; 0: not placed.
   double cut_person_height = 1.7;
   double cut_min_aspect = 1.2;
   double velocity_window = 1.0;  // s: velocity is the displacement over this window
+  // A footprint (not a bag's) moving farther than max_speed (m/s) over the time since the last
+  // fix plus jump_slack (m) has jumped (its box's bottom is another part now): the velocity restarts.
+  double max_speed = 3.0;
+  double jump_slack = 0.5;
   // A still bag that goes unseen while another object covers its place in the image (someone
   // in front, or beside it and merged with it) is held at its place for up to this long, not
   // measured, as the plan-view tracker holds occluded tracks; slower than hold_speed (m/s)
@@ -118,6 +123,13 @@ class MserTracker : public Tracker {
     int64_t stamp_ns = 0;
     double x = 0, y = 0;
   };
+  // How a thing lying still looked: its pixels (mask over box) and their colours.
+  struct Picture {
+    cv::Rect box;
+    cv::Mat mask;     // CV_8U
+    cv::Mat colours;  // CV_8UC3
+    int pixels = 0;
+  };
   struct History {
     std::deque<Fix> trail;  // the footprint over the velocity window
     int64_t stamp_ns = 0;
@@ -126,6 +138,7 @@ class MserTracker : public Tracker {
     int frames = 0;  // measured on
     cv::Rect box;    // in the image, when last measured
     std::map<TrackClass, double> votes;
+    Picture picture;  // a still bag: how it looked when last seen on its own, no hand on it
   };
   bool place_by_head(const cv::Rect& box, Placement* out) const;
   // The surface the ray through pixel (u, v) meets first, inside its outline (-1: the floor).
@@ -138,12 +151,11 @@ class MserTracker : public Tracker {
     int index = 0;
     Placement place;
     cv::Rect box;     // in the image
-    cv::Mat mask;     // CV_8U over box: its pixels
-    cv::Mat picture;  // CV_8UC3 over box: how it looked when found
-    int pixels = 0;
+    Picture picture;  // how it looked when found
   };
-  // Track id -> the start object's track id its hand is on, this frame (see hand_change).
-  std::map<int64_t, int64_t> hands_on_start_objects(const cv::Mat& bgr) const;
+  // Track id -> the track id of the thing lying there its hand is on, this frame (see
+  // hand_change); `handled` gets the things a hand is on.
+  std::map<int64_t, int64_t> hands_on_objects(const cv::Mat& bgr, std::set<int64_t>* handled) const;
   std::vector<StartObject> start_objects_;
   bool start_found_ = false;
   StereoCameraModel camera_;
