@@ -245,6 +245,47 @@ TEST(MserTracker, ABoxCutOffByATablesFarEdgeStandsJustBehindItNotWhereItsBottomR
   EXPECT_GT(pl.x, 8.0);
 }
 
+// The image outline of a level rectangle (x0..x1, y0..y1 at height z).
+std::vector<cv::Point> projected_quad(const StereoCameraModel& cam, double x0, double y0, double x1, double y1, double z) {
+  std::vector<cv::Point> pts;
+  for (const auto& [x, y] : {std::pair{x0, y0}, std::pair{x1, y0}, std::pair{x1, y1}, std::pair{x0, y1}}) {
+    Eigen::Vector2d px;
+    EXPECT_TRUE(cam.project_map(Eigen::Vector3d(x, y, z), &px));
+    pts.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
+  }
+  return pts;
+}
+
+// A thing lying on the table drawn over `empty`; with `figure`, a green-shirted figure behind
+// it (from the image's top to just below the thing's far side, the thing in front), and with
+// `hand` an arm reaching from the figure over the thing's middle.
+cv::Mat thing_scene(const cv::Mat& empty, const std::vector<cv::Point>& thing, const cv::Scalar& colour, bool figure,
+                    bool hand) {
+  const cv::Rect b = cv::boundingRect(thing);
+  const cv::Point centre(b.x + b.width / 2, b.y + b.height / 2);
+  const cv::Rect body(centre.x - 22, 0, 44, b.y + 4);
+  cv::Mat img = empty.clone();
+  if (figure) cv::rectangle(img, body, cv::Scalar(60, 160, 50), cv::FILLED);
+  cv::fillConvexPoly(img, thing, colour);
+  if (hand) cv::line(img, cv::Point(body.x + 6, body.br().y - 8), centre, cv::Scalar(110, 150, 215), 6);
+  return img;
+}
+
+// Feeds a tracker frame after frame (15 Hz stamps); each call gives that frame's tracks.
+struct Feeder {
+  MserTracker* tracker;
+  int64_t k = 0;
+  std::vector<Track> operator()(const cv::Mat& img) {
+    StereoFrame f;
+    f.index = k;
+    f.stamp_ns = ++k * 66'666'667LL;
+    f.left = img;
+    auto tracks = tracker->process(f);
+    EXPECT_TRUE(tracks.ok()) << tracks.error().str();
+    return tracks.ok() ? *tracks : std::vector<Track>{};
+  }
+};
+
 // Hands (Track::hand_on). After the laptop on the table has been learned as present at the
 // start, a figure standing behind it (the laptop drawn over the figure: its pixels unchanged)
 // has no hand on it; the same figure with an arm over the laptop has.
@@ -256,33 +297,10 @@ TEST(MserTracker, AHandOverAnObjectPresentAtTheStartIsSeenAndSomeoneBehindItIsNo
   ASSERT_TRUE(t.ok());
   EXPECT_TRUE(t->sees_hands());
   const cv::Mat empty = table_scene(cam);
-  std::vector<cv::Point> laptop;
-  for (const auto& [x, y] : {std::pair{5.3, 0.2}, std::pair{5.6, 0.2}, std::pair{5.6, 0.55}, std::pair{5.3, 0.55}}) {
-    Eigen::Vector2d px;
-    ASSERT_TRUE(cam.project_map(Eigen::Vector3d(x, y, 0.78), &px));
-    laptop.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
-  }
-  const cv::Rect lb = cv::boundingRect(laptop);
-  const cv::Point centre(lb.x + lb.width / 2, lb.y + lb.height / 2);
-  // A green-shirted figure from the image's top to just below the laptop's far side.
-  const cv::Rect body(centre.x - 22, 0, 44, lb.y + 4);
-  auto scene = [&](bool hand) {
-    cv::Mat img = empty.clone();
-    cv::rectangle(img, body, cv::Scalar(60, 160, 50), cv::FILLED);
-    cv::fillConvexPoly(img, laptop, cv::Scalar(120, 120, 120));  // in front of the figure
-    if (hand) cv::line(img, cv::Point(body.x + 6, body.br().y - 8), centre, cv::Scalar(110, 150, 215), 6);
-    return img;
-  };
-  int64_t k = 0;
-  auto step = [&](const cv::Mat& img) {
-    StereoFrame f;
-    f.index = k;
-    f.stamp_ns = ++k * 66'666'667LL;
-    f.left = img;
-    auto tracks = t->process(f);
-    EXPECT_TRUE(tracks.ok()) << tracks.error().str();
-    return tracks.ok() ? *tracks : std::vector<Track>{};
-  };
+  const auto laptop = projected_quad(cam, 5.3, 0.2, 5.6, 0.55, 0.78);
+  const cv::Scalar grey(120, 120, 120);
+  auto scene = [&](bool hand) { return thing_scene(empty, laptop, grey, true, hand); };
+  Feeder step{&*t};
   for (int i = 0; i < 25; ++i) step(empty);
   bool start_object = false;
   for (const Track& tr : step(empty)) start_object = start_object || tr.id == MserTracker::kStartIds + 1;
@@ -316,32 +334,9 @@ TEST(MserTracker, AHandOverAThingPutDownDuringTheRunIsSeenAndSomeoneBehindItIsNo
   auto t = MserTracker::create(cam, p);
   ASSERT_TRUE(t.ok());
   const cv::Mat empty = table_scene(cam);
-  std::vector<cv::Point> book;
-  for (const auto& [x, y] : {std::pair{5.15, -0.65}, std::pair{5.65, -0.65}, std::pair{5.65, -0.35}, std::pair{5.15, -0.35}}) {
-    Eigen::Vector2d px;
-    ASSERT_TRUE(cam.project_map(Eigen::Vector3d(x, y, 0.8), &px));
-    book.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
-  }
-  const cv::Rect bb = cv::boundingRect(book);
-  const cv::Point centre(bb.x + bb.width / 2, bb.y + bb.height / 2);
-  const cv::Rect body(centre.x - 22, 0, 44, bb.y + 4);
-  auto scene = [&](bool figure, bool hand) {
-    cv::Mat img = empty.clone();
-    if (figure) cv::rectangle(img, body, cv::Scalar(60, 160, 50), cv::FILLED);
-    cv::fillConvexPoly(img, book, cv::Scalar(30, 30, 30));
-    if (hand) cv::line(img, cv::Point(body.x + 6, body.br().y - 8), centre, cv::Scalar(110, 150, 215), 6);
-    return img;
-  };
-  int64_t k = 0;
-  auto step = [&](const cv::Mat& img) {
-    StereoFrame f;
-    f.index = k;
-    f.stamp_ns = ++k * 66'666'667LL;
-    f.left = img;
-    auto tracks = t->process(f);
-    EXPECT_TRUE(tracks.ok()) << tracks.error().str();
-    return tracks.ok() ? *tracks : std::vector<Track>{};
-  };
+  const auto book = projected_quad(cam, 5.15, -0.65, 5.65, -0.35, 0.8);
+  auto scene = [&](bool figure, bool hand) { return thing_scene(empty, book, cv::Scalar(30, 30, 30), figure, hand); };
+  Feeder step{&*t};
   for (int i = 0; i < 25; ++i) step(empty);
   int book_id = 0;
   for (int i = 0; i < 20; ++i)
