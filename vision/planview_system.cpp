@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -22,14 +23,21 @@ Status DepthRegionParams::validate() const {
   return Status::Ok();
 }
 
+Status StartObjectParams::validate() const {
+  if (!(wall_margin >= 0) || !std::isfinite(wall_margin)) return bad_input("", 0, "wall_margin", "must be >= 0 m");
+  return Status::Ok();
+}
+
 Result<PlanViewSystem> PlanViewSystem::create(const StereoCameraModel& camera, const PlanViewSystemParams& params) {
   if (Status s = params.depth_filter.validate(); !s) return s.error();
   if (Status s = params.depth_region.validate(); !s) return s.error();
+  if (Status s = params.start.validate(); !s) return s.error();
   auto bg = YuvdBackground::create(params.background);
   if (!bg) return bg.error();
   auto pipeline = PlanViewPipeline::create(camera, params.plan, params.tracking);
   if (!pipeline) return pipeline.error();
-  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter, params.depth_region);
+  return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter, params.depth_region,
+                        params.start);
 }
 
 Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
@@ -47,7 +55,16 @@ Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
                          " has no depth: the plan-view system needs a stereo source with disparity (disparity=sgbm)");
   if (!frame.depth_measured.empty() && frame.depth_measured.size() != frame.depth.size())
     return bad_input("", 0, "frame", "frame " + std::to_string(frame.index) + ": depth_measured is not the depth's size");
+  const bool first = background_.frames() == 0;
+  cv::Mat floor_depth;
+  if (first) {
+    start_mask_.release();
+    if (start_.enabled && !clearance_.empty() && frame.depth_measured.empty())
+      if (Status s = find_start_objects(frame.depth, &floor_depth); !s) return s.error();
+  }
   if (Status s = background_.apply(frame.left, frame.depth, frame.depth_measured, foreground_); !s) return s.error();
+  if (first && !start_mask_.empty())
+    if (Status s = background_.set_background_depth(start_mask_, floor_depth); !s) return s.error();
   if (filter_.edge_radius <= 0 || frame.depth.type() != CV_32F || frame.depth.size() != foreground_.size())
     return pipeline_.process(foreground_, frame.depth, frame.stamp_ns);
   filter_depth_edges(frame.depth);
@@ -60,11 +77,96 @@ cv::Mat PlanViewSystem::depth_wanted(const StereoFrame& frame) {
   if (learnt < region_.full_first) return {};
   if (region_.full_every > 0 && (learnt - region_.full_first) % region_.full_every == region_.full_every - 1) return {};
   if (!background_.colour_changes(frame.left, changed_)) return {};  // process() reports the bad frame
+  // Objects present at the start keep the colour the model learnt: their depth is what tells them.
+  if (!start_mask_.empty() && start_mask_.size() == changed_.size()) cv::bitwise_or(changed_, start_mask_, changed_);
   return changed_;
+}
+
+void PlanViewSystem::set_static_map(const OccupancyGrid& map) {
+  static_map_ = map;
+  clearance_.release();
+  if (map.width() <= 0 || map.height() <= 0) return;
+  // Distance from the nearest cell that is not free (walls, furniture, unknown), in metres; row
+  // cy of the image is the grid's row cy (smallest y first).
+  cv::Mat free_cells(map.height(), map.width(), CV_8U);
+  for (int cy = 0; cy < map.height(); ++cy)
+    for (int cx = 0; cx < map.width(); ++cx) free_cells.at<uint8_t>(cy, cx) = map.at(cx, cy) == Cell::kFree ? 255 : 0;
+  cv::distanceTransform(free_cells, clearance_, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  clearance_ *= map.resolution();
+}
+
+Status PlanViewSystem::find_start_objects(const cv::Mat& depth, cv::Mat* floor_depth) {
+  if (depth.type() != CV_32F) return Status::Ok();  // process() reports the bad frame
+  const PlanViewParams& pp = pipeline_.builder().params();
+  const PlanViewGrid& grid = pipeline_.builder().grid();
+  const PlanViewTrackerParams& tp = pipeline_.tracker().params();
+  const Eigen::Vector3d centre = camera_.map_from_optical().translation();
+  // 1. Points standing above the floor in free space, clear of the map's walls and furniture.
+  cv::Mat candidates = cv::Mat::zeros(depth.size(), CV_8U);
+  struct Pixel {
+    int u, v, col, row;
+  };
+  std::vector<Pixel> pixels;
+  for (int v = 0; v < depth.rows; ++v) {
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (!(d[u] > 0 && d[u] < std::numeric_limits<float>::infinity())) continue;
+      const Eigen::Vector3d p = camera_.back_project_map(u, v, d[u]);
+      const double h = p.z() - pp.floor_z;
+      if (h < pp.min_height || h > pp.max_height) continue;
+      int cx = 0, cy = 0;
+      if (!static_map_.world_to_cell(Vec2{p.x(), p.y()}, &cx, &cy)) continue;
+      if (clearance_.at<float>(cy, cx) < start_.wall_margin) continue;
+      const Eigen::Vector2d c = grid.to_cell(p.x(), p.y());
+      const int col = static_cast<int>(std::lround(c.x())), row = static_cast<int>(std::lround(c.y()));
+      if (col < 0 || row < 0 || col >= grid.cols || row >= grid.rows) continue;
+      candidates.at<uint8_t>(v, u) = 255;
+      pixels.push_back({u, v, col, row});
+    }
+  }
+  if (pixels.empty()) return Status::Ok();
+  // 2. Their plan view; the blobs a track could be born from.
+  PlanView view;
+  if (Status s = pipeline_.builder().build(candidates, depth, &view); !s) return s;
+  cv::Mat labels;
+  const int n = cv::connectedComponents(view.mask, labels, 8, CV_32S);
+  std::vector<double> area(n, 0.0), top(n, 0.0);
+  for (int r = 0; r < labels.rows; ++r) {
+    const int* l = labels.ptr<int>(r);
+    const float* o = view.occupancy.ptr<float>(r);
+    const float* h = view.height_masked.ptr<float>(r);
+    for (int c = 0; c < labels.cols; ++c) {
+      if (!l[c]) continue;
+      area[l[c]] += o[c] * grid.cell * grid.cell;
+      top[l[c]] = std::max(top[l[c]], static_cast<double>(h[c]));
+    }
+  }
+  std::vector<bool> keep(n, false);
+  bool any = false;
+  for (int k = 1; k < n; ++k) {
+    keep[k] = area[k] >= tp.birth_min_area && top[k] >= tp.birth_min_height;
+    any = any || keep[k];
+  }
+  if (!any) return Status::Ok();
+  // 3. Their pixels, with the floor's depth along each pixel's ray as the background's.
+  start_mask_ = cv::Mat::zeros(depth.size(), CV_8U);
+  *floor_depth = cv::Mat::zeros(depth.size(), CV_32F);
+  for (const Pixel& px : pixels) {
+    if (!keep[labels.at<int>(px.row, px.col)]) continue;
+    const Eigen::Vector3d q = camera_.back_project_map(px.u, px.v, 1.0);  // the ray's point at depth 1
+    const double drop = centre.z() - q.z();
+    if (drop <= 1e-6) continue;
+    const float floor = static_cast<float>((centre.z() - pp.floor_z) / drop);
+    if (!(floor > depth.at<float>(px.v, px.u))) continue;
+    start_mask_.at<uint8_t>(px.v, px.u) = 255;
+    floor_depth->at<float>(px.v, px.u) = floor;
+  }
+  return Status::Ok();
 }
 
 void PlanViewSystem::reset() {
   background_.reset();
+  start_mask_.release();
   pipeline_.reset();
   foreground_.release();
   plan_mask_.release();

@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "common/occupancy_grid.h"
 #include "common/status.h"
 #include "vision/frame_source.h"
 #include "vision/plan_view.h"
@@ -47,8 +48,25 @@ struct DepthRegionParams {
   Status validate() const;
 };
 
+// Objects present at the start. The background model learns the first frame as the empty scene,
+// so whatever stands there then (a bag left before the cameras started, a parked robot, someone
+// waiting) would be background for good. Given the building's map (set_static_map: walls and
+// furniture), the first frame's points that stand above the floor in free space, at least
+// wall_margin from anything the map holds, in plan-view blobs of at least the tracker's birth
+// area and height, are not the building: their pixels' background depth becomes the floor's along
+// the pixel's ray (what the map says is behind them), so they are foreground, nearer than the
+// background, and tracked like anything that came later; when such a thing leaves, the floor it
+// uncovers matches that depth. Without a map nothing changes.
+struct StartObjectParams {
+  bool enabled = true;
+  double wall_margin = 0.3;  // m from the map's occupied cells (walls, furniture): SGBM spreads a
+                             // wall's points over a few centimetres to decimetres
+  Status validate() const;
+};
+
 struct PlanViewSystemParams {
   YuvdBackgroundParams background;
+  StartObjectParams start;
   DepthRegionParams depth_region;
   DepthEdgeFilterParams depth_filter;
   PlanViewParams plan;
@@ -67,6 +85,13 @@ class PlanViewSystem : public Tracker {
   cv::Mat depth_wanted(const StereoFrame& frame) override;
   // Forgets the background model and every track (track ids keep counting up).
   void reset() override;
+  // The building as the map holds it (walls and furniture occupied), for the objects present at
+  // the start (StartObjectParams). An empty grid forgets it. Takes effect on the first frame
+  // learnt after it is set (after create() or reset()).
+  void set_static_map(const OccupancyGrid& map) override;
+  // Pixels of the first frame taken for objects present at the start (CV_8UC1, 255), empty when
+  // none were looked for.
+  const cv::Mat& start_objects() const { return start_mask_; }
 
   const cv::Mat& foreground() const { return foreground_; }
   const PlanView& plan_view() const { return pipeline_.plan_view(); }
@@ -79,17 +104,24 @@ class PlanViewSystem : public Tracker {
 
  private:
   PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df,
-                 DepthRegionParams region)
+                 DepthRegionParams region, StartObjectParams start)
       : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)), filter_(df),
-        region_(region) {}
+        region_(region), start_(start) {}
   // Drops the foreground pixels that are not on the near surface (see DepthEdgeFilterParams)
   // from plan_mask_.
   void filter_depth_edges(const cv::Mat& depth);
+  // The first frame's pixels on things standing in the map's free space (StartObjectParams), and
+  // their background depth: the floor along each pixel's ray.
+  Status find_start_objects(const cv::Mat& depth, cv::Mat* floor_depth);
   StereoCameraModel camera_;
   YuvdBackground background_;
   PlanViewPipeline pipeline_;
   DepthEdgeFilterParams filter_;
   DepthRegionParams region_;
+  StartObjectParams start_;
+  cv::Mat clearance_;  // distance (m) from the static map's occupied cells, CV_32F; empty: no map
+  OccupancyGrid static_map_;
+  cv::Mat start_mask_;
   cv::Mat changed_;
   cv::Mat foreground_, plan_mask_, near_depth_;
 };

@@ -177,6 +177,10 @@ Status PlanViewTrackerParams::validate() const {
     return param_error("class_vote_decay", "must be in (0, 1], got " + num(class_vote_decay));
   if (!nonneg(birth_border_margin)) return param_error("birth_border_margin", "must be >= 0");
   if (!nonneg(birth_shadow_depth)) return param_error("birth_shadow_depth", "must be >= 0");
+  if (split_window < 0) return param_error("split_window", "must be >= 0");
+  if (split_still_frames < 0) return param_error("split_still_frames", "must be >= 0");
+  if (!nonneg(split_radius)) return param_error("split_radius", "must be >= 0");
+  if (!nonneg(coast_min_sigmas)) return param_error("coast_min_sigmas", "must be >= 0");
   if (!nonneg(explain_distance)) return param_error("explain_distance", "must be >= 0");
   if (!nonneg(reacquire_distance)) return param_error("reacquire_distance", "must be >= 0");
   if (!pos(accel_noise)) return param_error("accel_noise", "must be positive");
@@ -203,6 +207,9 @@ struct PlanViewTracker::Impl {
     bool updated = false;  // this frame
     bool born = false;     // this frame
     bool hidden = false;   // this frame: missed while occluded (see occluded())
+    bool coast_still = false;  // while coasting: held still (velocity not known to differ from zero)
+    int64_t born_frame = 0;                             // frame count at birth
+    Eigen::Vector2d born_at = Eigen::Vector2d::Zero();  // map position at birth
     int label = 0;         // this frame: blob under the predicted position (0: none)
     double score = std::numeric_limits<double>::quiet_NaN();
     double confidence = 0;
@@ -225,6 +232,8 @@ struct PlanViewTracker::Impl {
   double camera_height = 0;                          // m above the floor
   double smoothing = 0;  // cells
   int next_id = 1;
+  int64_t frame = 0;  // frames tracked since creation or reset
+  cv::Mat still_age;  // CV_16U per grid cell: frames running it has been a still residual
   bool have_stamp = false;
   int64_t last_stamp = 0;
 
@@ -648,6 +657,9 @@ struct PlanViewTracker::Impl {
   bool measure_and_update(Trk& t, const Eigen::Vector2d& start, double rate, bool gated) {
     Eigen::Vector2d c = centre_of_mass(start);
     const bool shared = shared_blob(t, blob_near(c));
+    // A bag on a blob shared with someone (put down beside them): the merged blob's centre of
+    // mass is pulled to the person's bulk; the templates' best match is the bag's own place.
+    if (shared && t.cls == TrackClass::kBag) c = start;
     // A bag does not walk, so it has no lag to catch up with, and the blob under a bag grows
     // mostly by merging with someone next to it (a person picking it up whose track is not on
     // the blob yet, a robot passing): a bag keeps the local centre.
@@ -747,6 +759,11 @@ struct PlanViewTracker::Impl {
     for (const Trk& o : tracks) {
       // Occluders: confirmed tracks matched this frame, or matched last frame and not yet processed.
       if (&o == &t || !o.confirmed || o.missed || o.misses > 0 || o.occluded > 0) continue;
+      // Born beside t moments ago: t's own object found again by a second track (its blob moved
+      // or split beyond t's reach), not another object in front of it.
+      if (p.split_window > 0 && o.born_frame > t.born_frame && frame - o.born_frame <= p.split_window &&
+          (o.born_at - t.x.head<2>()).norm() < p.reacquire_max)
+        continue;
       const Eigen::Vector2d q = o.x.head<2>() - camera;
       const double along = q.dot(u);
       const double across = std::abs(q.x() * u.y() - q.y() * u.x());
@@ -757,6 +774,12 @@ struct PlanViewTracker::Impl {
     }
     return false;
   }
+
+  // True when t is a bag whose predicted place is still on a blob: something stands there (the
+  // bag, in one blob with its owner who turns and starts off beside it, smeared together in
+  // depth), only the bag's templates did not match. A bag does not walk; one picked up leaves its
+  // place empty once its carrier is off.
+  bool merged(const Trk& t) const { return p.hold_bag_on_blob && t.cls == TrackClass::kBag && t.label > 0; }
 
   // True when a track updated this frame stands in front of map point m (an object of width w),
   // 0.25 m to birth_shadow_depth nearer the camera, overlapping it in the image.
@@ -785,12 +808,21 @@ struct PlanViewTracker::Impl {
       if (!t.missed || t.updated) continue;
       // Coasting: a slow track, or a bag (bags do not walk), is held still: its apparent motion
       // is mostly a transient of blobs merging, splitting or being hidden; a person or a robot
-      // keeps its velocity, optionally decaying.
-      if (t.x.segment<2>(2).norm() < p.coast_hold_speed || t.cls == TrackClass::kBag) t.x.segment<2>(2).setZero();
+      // keeps its velocity, optionally decaying. So is a track whose velocity, when it was last
+      // measured, was not known to differ from zero (under coast_min_sigmas standard deviations
+      // along itself): a track measured for a few frames only has a velocity of blob transients.
+      if (t.misses == 0 && t.occluded == 0) {
+        const Eigen::Vector2d v = t.x.segment<2>(2);
+        const double speed2 = v.squaredNorm();
+        const double var = speed2 > 0 ? v.dot(t.P.block<2, 2>(2, 2) * v) / speed2 : 0.0;
+        t.coast_still = p.coast_min_sigmas > 0 && speed2 < p.coast_min_sigmas * p.coast_min_sigmas * var;
+      }
+      if (t.coast_still || t.x.segment<2>(2).norm() < p.coast_hold_speed || t.cls == TrackClass::kBag)
+        t.x.segment<2>(2).setZero();
       t.x(2) *= decay;
       t.x(3) *= decay;
       // Lost in the open (a miss not occluded): missing until matched again, whatever passes.
-      t.hidden = t.confirmed && t.misses == 0 && occluded(t);
+      t.hidden = t.confirmed && t.misses == 0 && (occluded(t) || merged(t));
       if (t.hidden)
         ++t.occluded;
       else
@@ -842,9 +874,16 @@ struct PlanViewTracker::Impl {
       }
       if (b.on_border && border_distance(bc) < p.birth_border_margin) continue;  // partly outside: not yet
       if (in_shadow_of_track(bm, bw)) continue;  // mixed with the object just in front: not yet
+      add_track(bm, bc, b.max_height, bw);
+    }
+  }
+
+  // A new tentative track at map point bm (templates cut around cell bc).
+  void add_track(const Eigen::Vector2d& bm, const Eigen::Vector2d& bc, double height, double width) {
+    {
       Trk t;
       t.id = next_id++;
-      t.x << bm.x(), bm.y(), 0, 0, b.max_height, bw;
+      t.x << bm.x(), bm.y(), 0, 0, height, width;
       const double pv = p.position_noise * p.position_noise, vv = p.initial_velocity_sigma * p.initial_velocity_sigma,
                    sv = p.shape_measurement_noise * p.shape_measurement_noise;
       t.P = Vec6(pv, pv, vv, vv, sv, sv).asDiagonal();
@@ -854,9 +893,95 @@ struct PlanViewTracker::Impl {
       t.confirmed = p.min_hits <= 1;
       t.updated = true;
       t.born = true;
+      t.born_frame = frame;
+      t.born_at = bm;
       t.confidence = 0.5;
       vote(t);
       tracks.push_back(std::move(t));
+    }
+  }
+
+  // Still residuals (see the header comment): the cells of a blob a track explains that lie
+  // farther than split_radius across the line of sight from every track seen on it this frame,
+  // counted frame by frame while they stay occupied; a connected set of them occupied for
+  // split_still_frames frames running, large and tall enough for a birth, with no track near it,
+  // becomes a track of its own.
+  void still_residual_births() {
+    if (p.split_still_frames <= 0) return;
+    if (still_age.empty()) still_age = cv::Mat::zeros(grid.rows, grid.cols, CV_16U);
+    cv::Mat residual = cv::Mat::zeros(grid.rows, grid.cols, CV_8U);
+    if (!labels.empty()) {
+      std::vector<std::vector<const Trk*>> on(blobs.size());
+      for (const Trk& t : tracks) {
+        if (!t.updated || t.born) continue;
+        const int l = label_at_cell(template_cell(t));
+        if (l > 0 && static_cast<size_t>(l) < on.size()) on[l].push_back(&t);
+      }
+      for (int r = 0; r < labels.rows; ++r) {
+        const int* l = labels.ptr<int>(r);
+        const int row = r + label_origin.y;
+        for (int k = 0; k < labels.cols; ++k) {
+          if (!l[k] || on[l[k]].empty()) continue;
+          const int col = k + label_origin.x;
+          const Eigen::Vector2d m = grid.to_map(col, row);
+          bool far = true;
+          for (const Trk* t : on[l[k]]) {
+            // Across the line of sight only: stereo smears an object along it.
+            const Eigen::Vector2d c = t->x.head<2>() - surface_offset(t->x.head<2>(), t->x(5));
+            const Eigen::Vector2d u = (c - camera).normalized(), d = m - c;
+            if (std::abs(d.x() * u.y() - d.y() * u.x()) <= p.split_radius) {
+              far = false;
+              break;
+            }
+          }
+          if (far) residual.at<uint8_t>(row, col) = 255;
+        }
+      }
+    }
+    // Ages: frames running each cell has been a residual.
+    for (int row = 0; row < grid.rows; ++row) {
+      const uint8_t* res = residual.ptr<uint8_t>(row);
+      uint16_t* a = still_age.ptr<uint16_t>(row);
+      for (int col = 0; col < grid.cols; ++col) a[col] = res[col] ? static_cast<uint16_t>(std::min(a[col] + 1, 60000)) : 0;
+    }
+    cv::Mat still = still_age >= p.split_still_frames, parts;
+    const int n = cv::connectedComponents(still, parts, 8, CV_32S);
+    if (n <= 1) return;
+    std::vector<Blob> pb(n);
+    for (int row = 0; row < parts.rows; ++row) {
+      const int* l = parts.ptr<int>(row);
+      const float* o = at(occ, 0, row);
+      const float* h = at(hgt, 0, row);
+      for (int col = 0; col < parts.cols; ++col) {
+        if (!l[col]) continue;
+        Blob& b = pb[l[col]];
+        b.mass += o[col];
+        b.cx += o[col] * col;
+        b.cy += o[col] * row;
+        b.max_height = std::max(b.max_height, static_cast<double>(h[col]));
+        b.sxx += o[col] * col * col;
+        b.sxy += o[col] * col * row;
+        b.syy += o[col] * static_cast<double>(row) * row;
+      }
+    }
+    const double cell2 = grid.cell * grid.cell;
+    for (int k = 1; k < n; ++k) {
+      Blob& b = pb[k];
+      // Things put down only: a residual as tall as a bag's top or taller is a part of someone.
+      if (b.mass * cell2 < p.birth_min_area || b.max_height < p.birth_min_height ||
+          b.max_height >= p.classes.bag_max_height)
+        continue;
+      const double sx = b.cx, sy = b.cy;
+      b.cx /= b.mass;
+      b.cy /= b.mass;
+      const Eigen::Vector2d bc(b.cx, b.cy);
+      const Eigen::Vector2d surface = grid.to_map(b.cx, b.cy);
+      const double bw = weighted_extent(b.mass, sx, sy, b.sxx, b.sxy, b.syy, b.cx, b.cy);
+      const Eigen::Vector2d bm = surface + surface_offset(surface, bw);
+      bool near = false;
+      for (const Trk& t : tracks) near = near || (t.x.head<2>() - bm).norm() < p.explain_distance;
+      if (near || in_shadow_of_track(bm, bw) || border_distance(bc) < p.birth_border_margin) continue;
+      add_track(bm, bc, b.max_height, bw);
     }
   }
 };
@@ -876,7 +1001,10 @@ Result<PlanViewTracker> PlanViewTracker::create(const PlanViewGrid& grid, const 
   return PlanViewTracker(grid, params);
 }
 
-void PlanViewTracker::reset() { impl_->tracks.clear(); }
+void PlanViewTracker::reset() {
+  impl_->tracks.clear();
+  impl_->still_age.release();
+}
 
 int PlanViewTracker::live_tracks() const { return static_cast<int>(impl_->tracks.size()); }
 
@@ -905,6 +1033,7 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   }
   const double dt = m.have_stamp ? (stamp_ns - m.last_stamp) * 1e-9 : 0.0;
   m.have_stamp = true;
+  ++m.frame;
   m.last_stamp = stamp_ns;
 
   m.camera = view.camera_xy;
@@ -934,8 +1063,8 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   for (size_t i : order) m.match(m.tracks[i]);
 
   m.births();
+  m.still_residual_births();
   m.count_misses(dt);
-
   std::erase_if(m.tracks, [&](const Impl::Trk& t) {
     return (!t.confirmed && t.misses > 0) || t.misses >= params_.max_missed ||
            t.occluded > params_.max_occluded;

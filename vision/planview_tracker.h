@@ -43,9 +43,30 @@
 // that line, so the new blob still carries a sliver of the one in front (a bag just put down
 // behind its owner, born with the owner's leg, classed robot). It is born once the two are apart.
 //
+// A still thing beside a tracked object, in one blob with it (a bag put down beside its owner,
+// who stays), would be explained by the owner's track and never born. So the cells of a blob a
+// track explains that lie farther than split_radius from every track on it, across the line of
+// sight (stereo smears along it), are residuals (the track's measured width is no guide: it
+// spans the merged blob); residual cells that stay occupied split_still_frames frames running (a carried bag
+// moves with its carrier and never does) and make up a birth's area and height, with no track
+// near, and lower than classes.bag_max_height (things put down; a taller residual is part of
+// someone: an arm over a table, a shoulder), are born as a track of their own (the stereo-shadow
+// and border rules apply).
+//
 // Occlusion explains a disappearance only when the occluder was there when it happened: a track
 // lost in the open (its first missed frame not occluded) stays missing even if a track later
-// passes in front of it (often the same object re-found by a new track).
+// passes in front of it (often the same object re-found by a new track). Nor is a track born
+// within split_window frames and reacquire_max of it an occluder: that is most often its own
+// object found again by a second track (the blob jumped beyond its reach as stereo smear at the
+// far range resolved), and holding the first as hidden behind the second reports a ghost for
+// seconds.
+//
+// A bag missed while its predicted place is still on a blob (hold_bag_on_blob) is held there as
+// hidden too, not lost: something stands on its place and only the bag's templates failed to
+// match, most often because it is in one blob with its owner who turns and starts off beside it
+// (smeared together in depth, and the owner's own track missing for those frames, so no
+// occluder). A bag does not walk; one picked up leaves its place empty once its carrier is off,
+// and is then missing as any other track.
 //
 // Occlusion (figure 10.6): a track missed while another track seen this frame stands between it
 // and the camera (in the plan view: nearer the camera, across its line of sight, and tall enough
@@ -55,7 +76,10 @@
 // (score under occluded_match * track_threshold); on a weaker one only its position is, loosely,
 // from the visible part (a partial view would drag its shape and templates); a blob near it is
 // taken as its visible part (no birth). A coasting track keeps its velocity unless it is slow or a
-// bag (held still: bags do not walk, and slow apparent motion is mostly blob transients).
+// bag (held still: bags do not walk, and slow apparent motion is mostly blob transients), or its
+// velocity when last measured was not known to differ from zero (coast_min_sigmas): a track
+// measured for a handful of frames, such as one born on a bag while it is being put down, would
+// otherwise drift off on the velocity of its birth.
 //
 // Each track has a class from its height and width (person, bag, robot; classify_track), voted
 // over its frames with a slow decay (class_vote_decay). Positions: the measured centre of mass is
@@ -132,7 +156,11 @@ struct PlanViewTrackerParams {
   int max_occluded = 75;          // ...or frames while occluded (see the header comment)
   int report_missed = 4;          // a missing track (not occluded) is reported for at most this many
                                   // frames, then kept unreported (for re-acquisition) to max_missed
+  bool hold_bag_on_blob = true;   // a bag missed while its place is still on a blob is held as hidden
+                                  // (see the header comment)
   double coast_hold_speed = 0.3;  // m/s: a coasting track slower than this, or a bag, is held still
+  double coast_min_sigmas = 2.0;  // ...or one whose speed at its last measurement was under this many
+                                  // standard deviations of its velocity along itself (0 = off)
   double coast_velocity_decay = 0;  // s, time constant of the velocity's decay while coasting (0 = none)
   double occluded_match = 0.25;   // an occluded track is fully updated under this * track_threshold;
   double occluded_position_noise = 0.1;  // above, only its position, with this noise (m)
@@ -142,6 +170,12 @@ struct PlanViewTrackerParams {
                                      // centre this close to it (see the header comment; 0 = off)
   double birth_shadow_depth = 1.0;  // m: no birth from a blob hidden behind a track seen this frame
                                     // and less than this behind it (see the header comment; 0 = off)
+  int split_window = 15;          // frames: a track born this recently beside a missed one does not
+                                  // occlude it (see the header comment; 0 = off)
+  int split_still_frames = 15;    // frames a still residual must stay before its birth (0 = off; see the
+                                  // header comment)
+  double split_radius = 0.3;      // m across the line of sight from a track's centre where residuals
+                                  // start (a person's half shoulder width and an arm)
   double explain_distance = 0.3;  // m: a blob whose centre is this close to a track is that track's
   double reacquire_distance = 0.6;  // m: a coasting track this close to an unexplained blob takes it,
   double reacquire_max = 1.0;       // or up to this far as its prediction's 3 sigma grows

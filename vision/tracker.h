@@ -10,6 +10,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "common/occupancy_grid.h"
 #include "common/status.h"
 #include "vision/frame_source.h"
 #include "vision/track.h"
@@ -30,6 +31,10 @@ class Tracker {
   // left image, before process() is given the same frame; empty = everywhere (the default). A
   // stereo source may then match only there and say so in frame.depth_measured.
   virtual cv::Mat depth_wanted(const StereoFrame&) { return {}; }
+  // The building as its map holds it (walls and furniture occupied, map frame), for a tracker
+  // that can tell what is not the building in its first frame (objects present at the start).
+  // Given before the first frame; the default ignores it.
+  virtual void set_static_map(const OccupancyGrid&) {}
   // One frame, stamps increasing. Returns the tracks reported on this frame (map frame, the
   // tracker's camera id). Bad input (wrong size or type, a missing image) is an error naming
   // what is wrong; the tracker's state is unchanged by it.

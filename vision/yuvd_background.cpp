@@ -692,6 +692,32 @@ void YuvdBackground::first_frame(const cv::Mat& depth) {
   }
 }
 
+Status YuvdBackground::set_background_depth(const cv::Mat& mask, const cv::Mat& depth) {
+  if (frames_ == 0 || !has_depth_)
+    return bad_input("", 0, "depth", "the model has not learnt a frame with depth yet");
+  if (mask.type() != CV_8UC1 || mask.cols != width_ || mask.rows != height_)
+    return bad_input("", 0, "mask", "expected a CV_8UC1 mask of the model's size, got " + describe(mask));
+  if (depth.type() != CV_32FC1 || depth.cols != width_ || depth.rows != height_)
+    return bad_input("", 0, "depth", "expected a CV_32FC1 depth image of the model's size, got " + describe(depth));
+  const int K = params_.num_gaussians;
+  const float vd = params_.init_sigma_depth * params_.init_sigma_depth;
+  float* md = buf_->plane(kMD, 0, K);
+  float* vD = buf_->plane(kVD, 0, K);
+  float* fd = buf_->plane(kFD, 0, K);
+  for (int y = 0; y < height_; ++y) {
+    const uint8_t* m = mask.ptr<uint8_t>(y);
+    const float* d = depth.ptr<float>(y);
+    const std::size_t off = static_cast<std::size_t>(y) * stride_;
+    for (int x = 0; x < width_; ++x) {
+      if (!m[x] || !valid_depth(d[x])) continue;
+      md[off + x] = d[x];
+      vD[off + x] = vd;
+      fd[off + x] = 1.0f;
+    }
+  }
+  return Status::Ok();
+}
+
 void YuvdBackground::learn(const cv::Mat& depth, const cv::Mat& measured) {
   const YuvdBackgroundParams& p = params_;
   const int K = p.num_gaussians;

@@ -130,6 +130,13 @@ class YuvdBackground {
   // first frame. Same errors as apply().
   Status colour_changes(const cv::Mat& bgr, cv::Mat& changed) const;
 
+  // Gives the strongest Gaussian of each pixel set in `mask` (CV_8UC1 of the model's size) the
+  // depth in `depth` (CV_32FC1 metres, > 0) as fully measured: what the scene behind is known to
+  // be (the building, from its map) where the learnt frame showed something nearer. Those pixels
+  // are then foreground while that thing stays (nearer than the background's depth). Needs a
+  // model that has learnt a frame with depth; errors name the argument.
+  Status set_background_depth(const cv::Mat& mask, const cv::Mat& depth);
+
   // Forgets everything: the next frame starts a new model (and may have another size).
   void reset();
 

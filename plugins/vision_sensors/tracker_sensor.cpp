@@ -77,8 +77,12 @@ class TrackerSensor : public VisionSensor {
   bool wants_frames() const override { return true; }
   bool sees_hands() const override { return tracker_ && tracker_->sees_hands(); }
 
-  Status tick(const vision::StereoFrame* frame, const World&, std::vector<vision::Track>* out) override {
+  Status tick(const vision::StereoFrame* frame, const World& world, std::vector<vision::Track>* out) override {
     if (!frame) return internal_error(std::string(tracker_ ? tracker_->name() : "tracker") + ": a tick without a frame");
+    if (!map_given_) {
+      tracker_->set_static_map(world.map());  // the building, as the robots' map holds it
+      map_given_ = true;
+    }
     const vision::StereoFrame* in = frame;
     if (matcher_) {
       matched_ = *frame;
@@ -102,6 +106,7 @@ class TrackerSensor : public VisionSensor {
   std::optional<vision::StereoMatcher> matcher_;
   vision::StereoCameraModel model_;
   vision::StereoFrame matched_;
+  bool map_given_ = false;
 };
 
 TrackerKind planview_kind() {

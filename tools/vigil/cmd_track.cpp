@@ -27,6 +27,8 @@
 #include "vision/mser/mser_tracker.h"
 #include "vision/planview_system.h"
 #include "vision/track_io.h"
+#include "world/floorplan.h"
+#include "world/map.h"
 #include "world/video_writer.h"
 
 namespace vigil::cli {
@@ -109,7 +111,7 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
 
 void add_track_command(CLI::App& app) {
   struct Opts {
-    std::string source, pipeline = "planview", out, camera_id;
+    std::string source, pipeline = "planview", out, camera_id, map;
     int64_t frames = 0;
     bool no_video = false, quiet = false;
     double max_range = 8.0, cell_size = 0.02, learning_rate = 0.005, scale = 1.0;
@@ -125,6 +127,10 @@ void add_track_command(CLI::App& app) {
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--frames", o->frames, "stop after this many frames (default: the whole source)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--camera-id", o->camera_id, "camera id written on the tracks (default: the source's camera or 'camera')");
+  cmd->add_option("--map", o->map,
+                  "the building's map (a .floorplan.yaml, map_server YAML or Stage worldfile) for a recorded source: the "
+                  "plan view then tracks what stands in its free space from the first frame (a rendered source uses its "
+                  "scenario's map)");
   cmd->add_option("--max-range", o->max_range, "plan view: metres from the camera (default 8)")->check(CLI::PositiveNumber);
   cmd->add_option("--cell-size", o->cell_size, "plan view: cell side in metres (default 0.02)")->check(CLI::PositiveNumber);
   cmd->add_option("--learning-rate", o->learning_rate, "foreground: alpha (default 0.005)")->check(CLI::PositiveNumber);
@@ -174,6 +180,27 @@ void add_track_command(CLI::App& app) {
       auto pv = vision::PlanViewSystem::create(*model, sp);
       if (!pv) throw Exit{report(pv.error())};
       system = std::make_unique<vision::PlanViewSystem>(std::move(*pv));
+      // The building, for what stands there from the first frame: the --map given, or a rendered
+      // source's own.
+      if (!o->map.empty()) {
+        const std::filesystem::path mp = o->map;
+        const std::string name = mp.filename().string();
+        Result<OccupancyGrid> grid = internal_error("");
+        if (name.ends_with(".floorplan.yaml")) {
+          auto plan = load_floorplan(mp);
+          grid = plan ? Result<OccupancyGrid>(plan->rasterize()) : Result<OccupancyGrid>(plan.error());
+        } else {
+          grid = load_map(mp);
+        }
+        if (!grid) {
+          Error e = grid.error();
+          if (e.key.empty()) e.key = "--map";
+          throw Exit{report(e)};
+        }
+        system->set_static_map(*grid);
+      } else if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) {
+        system->set_static_map(r->world().map());
+      }
     } else {
       vision::mser::MserTrackerParams tp;
       tp.camera = camera_id;
