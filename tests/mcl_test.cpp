@@ -45,10 +45,6 @@ OccupancyGrid dis_map() {
   return plan->rasterize();
 }
 
-Pose2 compose(Pose2 a, Pose2 b) {
-  const double c = std::cos(a.yaw), s = std::sin(a.yaw);
-  return {a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, wrap_angle(a.yaw + b.yaw)};
-}
 
 // A simulated robot: unicycle driven through waypoints (or wandering by its true laser when
 // the waypoints run out and `wander` is set), Stage-like odometry with a fixed bias, a scan a step.
@@ -136,6 +132,13 @@ TEST(Mcl, BadParametersNameTheKey) {
   ASSERT_TRUE(m.ok());
   EXPECT_EQ(m->initialize({1, 1, 0}, {-0.1, 0.1, 0.1}).error().key, "stddev");
   EXPECT_EQ(m->initialize({std::nan(""), 1, 0}, {0.1, 0.1, 0.1}).error().key, "mean");
+  // The crowd options switched on a running filter: a bad range names its key and changes nothing.
+  EXPECT_EQ(m->set_crowd_options(-1, true).error().key, "occlusion_range");
+  EXPECT_EQ(m->params().occlusion_range, 0.0);
+  EXPECT_FALSE(m->params().beam_skip);
+  EXPECT_TRUE(m->set_crowd_options(3.0, true).ok());
+  EXPECT_EQ(m->params().occlusion_range, 3.0);
+  EXPECT_TRUE(m->params().beam_skip);
 }
 
 // Runs the filter beside a robot; returns RMS position and heading errors over updates after

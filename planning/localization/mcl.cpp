@@ -275,6 +275,15 @@ Pose2 MonteCarloLocalization::random_free_pose() {
   return p;
 }
 
+Status MonteCarloLocalization::set_crowd_options(double occlusion_range, bool beam_skip) {
+  MclParams p = params_;
+  p.occlusion_range = occlusion_range;
+  p.beam_skip = beam_skip;
+  if (Status s = validate(p); !s) return s;
+  params_ = p;
+  return Status::Ok();
+}
+
 void MonteCarloLocalization::initialize_global() {
   const int n = params_.kld ? params_.max_particles : params_.particles;
   particles_.resize(n);

@@ -205,6 +205,12 @@ class MonteCarloLocalization {
   // update_min_a and a scan is given. Returns whether a filter update happened.
   bool update(Pose2 odometry, const LaserScan* scan);
 
+  // Switches the options for a filter among people and robots (occlusion_range, beam_skip;
+  // see MclParams) on or off from the next update: a robot whose start is unknown localises
+  // without them and turns them on once localised. An out-of-range value is an error naming the
+  // key, and changes nothing.
+  Status set_crowd_options(double occlusion_range, bool beam_skip);
+
   // The current estimate (recomputed at each filter update and initialisation).
   const MclEstimate& estimate() const { return estimate_; }
   bool converged() const { return estimate_.converged; }

@@ -134,8 +134,8 @@ class Navigator : public Plugin {
         {"roadmap_density", ParamType::kNumber, 1.5, 0.05, 50.0, "PRM milestones per m^2 of free space"},
         {"roadmap_seed", ParamType::kInteger, 1.0, 0, 1e9, "seed of the shared roadmap"},
         {"report_rate", ParamType::kNumber, 2.0, 0.1, 100.0, "state reports per second (events are reported at once)"},
-        {"occlusion_range", ParamType::kNumber, 0.0, 0.0, 50.0, "MCL: short beams within this range (a body in front) are not evidence of a wrong pose (m; 0 = off)"},
-        {"beam_skip", ParamType::kBool, false, 0, 0, "MCL: leave out beams most particles cannot explain (nav2 AMCL do_beamskip)"},
+        {"occlusion_range", ParamType::kNumber, 3.0, 0.0, 50.0, "MCL: short beams within this range (a body in front) are not evidence of a wrong pose (m; 0 = off; on once localised)"},
+        {"beam_skip", ParamType::kBool, true, 0, 0, "MCL: leave out beams most particles cannot explain (nav2 AMCL do_beamskip; on once localised)"},
     };
   }
 
@@ -214,8 +214,13 @@ class Navigator : public Plugin {
       mp.seed = ctx.seed ^ 0x5bd1e995ull;
       mp.particles = global_start_ ? p.integer("global_particles") : p.integer("particles");
       mp.max_beams = p.integer("laser_beams");
-      mp.occlusion_range = p.number("occlusion_range");
-      mp.beam_skip = p.boolean("beam_skip");
+      // Among people and robots a body close in front of the laser must not throw the filter
+      // off; but a filter localising globally may converge on a wrong but similar place, and
+      // needs those beams to leave it: the options go on once it is localised.
+      crowd_range_ = p.number("occlusion_range");
+      crowd_skip_ = p.boolean("beam_skip");
+      mp.occlusion_range = global_start_ ? 0.0 : crowd_range_;
+      mp.beam_skip = global_start_ ? false : crowd_skip_;
       mp.laser_pose = ctx.laser_mount;
       if (ctx.laser_range_max > 0) mp.field.max_range = ctx.laser_range_max;
       auto shared = nav_detail::shared_mcl_map(ctx.map, mp.field);
@@ -268,6 +273,7 @@ class Navigator : public Plugin {
       explore(*me, &v, &w);
       if (mcl_->converged()) {
         mode_ = "idle";
+        (void)mcl_->set_crowd_options(crowd_range_, crowd_skip_);  // checked at configure
         push_event(cmd, "localized", "");
       }
     } else {
@@ -754,6 +760,8 @@ class Navigator : public Plugin {
   SimTime replan_period_ = 0, blocked_wait_ = 0, stuck_time_ = 0, report_every_ = 0;
   int max_recoveries_ = 3;
   bool use_mcl_ = true, global_start_ = false;
+  double crowd_range_ = 0;  // MCL's occlusion_range and beam_skip once localised
+  bool crowd_skip_ = false;
   std::shared_ptr<const planning::TwoLevelPlanner> planner_;
   std::shared_ptr<const planning::MclMap> mcl_map_;
   planning::MclParams mcl_params_;

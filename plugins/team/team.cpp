@@ -79,13 +79,9 @@ Result<std::shared_ptr<const PatrolSetup>> shared_setup(const fs::path& file, co
 class Team : public Plugin {
  public:
   std::vector<ParamSpec> params() const override {
+    // The navigator's own defaults hold: its localisation does not take a mate (or anyone) in
+    // front of the laser for a sign of being lost (occlusion_range, beam_skip).
     std::vector<ParamSpec> p = nav_.params();
-    // Robots of a team pass close to each other: their localisation must not take a mate in
-    // front of the laser for a sign of being lost.
-    for (ParamSpec& s : p) {
-      if (s.name == "occlusion_range") s.default_value = 3.0;
-      if (s.name == "beam_skip") s.default_value = true;
-    }
     const std::vector<ParamSpec> own = {
         {"graph", ParamType::kString, std::string(""), 0, 0, "patrol graph file (patrolling_sim format), relative to the scenario"},
         {"strategy", ParamType::kString, std::string("cyclic"), 0, 0, "cyclic | partition | greedy"},

@@ -35,10 +35,6 @@ constexpr double kDt = 0.1, kSpeed = 0.4, kTurn = 1.0;
 const Pose2 kLaser{0.12, 0.0, 0.0};
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-Pose2 compose(Pose2 a, Pose2 b) {
-  const double c = std::cos(a.yaw), s = std::sin(a.yaw);
-  return {a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, wrap_angle(a.yaw + b.yaw)};
-}
 
 // The same simulated robot as tests/mcl_test.cpp: unicycle through looping waypoints, or
 // wandering by its true laser; Stage-like odometry with a per-robot bias on the x, y and yaw
