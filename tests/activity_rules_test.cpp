@@ -220,6 +220,47 @@ TEST(ActivityRules, AnotherPersonWalkingOffWithTheBagIsBagTaken) {
   EXPECT_LT(seconds(e.stamp_ns), 23.0);
 }
 
+// A left bag falls due while the tracker holds it hidden behind someone standing in front of it:
+// it is reported once it is seen again; had it been picked up behind them, never (the bag taken
+// is reported instead).
+TEST(ActivityRules, ALeftBagHiddenWhenItFallsDueIsReportedOnlyOnceSeenAgain) {
+  // Due at about 13.2 s (LeftBagFiresWhenTheOwnerIsAwayForT); held, not measured, from 12 to 15 s.
+  Actor bag = bag_at_5();
+  bag.measured = [](double t) { return t < 12 || t > 15; };
+  auto rules = make_rules({}, corridor_camera());
+  const auto events = run(rules, 20, {owner_walks_off(), bag});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_GT(seconds(events[0].stamp_ns), 15.0);
+  EXPECT_LT(seconds(events[0].stamp_ns), 15.0 + 1.5 / kHz);
+  // Person 2 stands in front of it from 11 s, picks it up out of sight at 14 s (the held track
+  // ends there) and walks off: no left bag, a bag taken.
+  Actor taker{2, TrackClass::kPerson, Path{{{8, 8, 0}, {11, 5.9, -0.3}, {14, 5.9, -0.3}, {20, 12, 0}}}};
+  Actor taken = bag_at_5(4.5, 14);
+  taken.measured = [](double t) { return t < 11.5; };
+  auto rules2 = make_rules({}, corridor_camera());
+  const auto events2 = run(rules2, 20, {owner_walks_off(), taken, taker});
+  ASSERT_EQ(events2.size(), 1u);
+  EXPECT_EQ(events2[0].kind, EventKind::kBagTaken);
+  EXPECT_EQ(events2[0].people, std::vector<int>{2});
+}
+
+// The owner stands by her bag until 10 s and walks off past where person 2 then stands by it
+// (from 12 s, in front of it: the tracker holds it, not measured) and takes it at 13 s. When the
+// bag was last seen (12 s) she stood 1.07 m from that spot, but she was 2 m or more from the
+// taker as the taker took it: bag taken, not exchange.
+TEST(ActivityRules, AnOwnerGoneBeforeTheTakerCameIsNoExchange) {
+  Actor owner{1, TrackClass::kPerson, Path{{{0, 0, 0}, {4.17, 5, 0}, {10, 5, 0}, {12, 6.3, 0.6}, {16, 12, 3}}}};
+  Actor bag = bag_at_5(4.5, 13);
+  bag.measured = [](double t) { return t <= 12 + 1e-6; };
+  Actor taker{2, TrackClass::kPerson, Path{{{8, 6.1, -4}, {12, 6.1, -0.45}, {13, 6.1, -0.45}, {20, 6.1, -8}}}};
+  auto rules = make_rules({}, corridor_camera());
+  const auto events = run(rules, 20, {owner, bag, taker});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kBagTaken);
+  EXPECT_EQ(events[0].people, std::vector<int>{2});
+}
+
 // The plan-view tracker reports a bag track for a few frames after its blob has gone (coasting,
 // report_missed = 4 at 15 Hz), at its old place. A taker who walks off at once is past
 // pickup_distance by the last of those reports: who stood by the bag is judged on the frames it

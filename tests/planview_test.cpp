@@ -997,8 +997,9 @@ TEST(PlanViewTracker, FastSearchGivesTheSameTracksAsTheExhaustiveOne) {
 }
 
 TEST(PlanViewTracker, EstablishedClassSurvivesAFewSecondsOfAnotherShape) {
-  // A bag seen for 8 s, then for 2.7 s something makes its blob 0.7 m wide (robot-like), then
-  // it is a bag again: its class stays bag. With a short vote memory it flips.
+  // A bag seen for 8 s, then for 2.7 s something makes its blob 0.7 m wide (robot-like under a
+  // classifier where low things from 0.5 m wide are robots), then it is a bag again: its class
+  // stays bag. With a short vote memory it flips.
   Mover bag{"bag", Vector3d(0.4, 0.2, 0.4), [](double) { return std::optional<Vector2d>(Vector2d(4.0, 0.8)); },
             std::nullopt};
   Mover widen{"widen", Vector3d(0.2, 0.7, 0.35), [](double t) {
@@ -1013,8 +1014,10 @@ TEST(PlanViewTracker, EstablishedClassSurvivesAFewSecondsOfAnotherShape) {
       for (const Track& t : r.frames[f]) seen.insert(t.cls);
     return seen;
   };
-  EXPECT_EQ(classes({}), std::set<TrackClass>{TrackClass::kBag});
-  PlanViewTrackerParams short_memory;
+  PlanViewTrackerParams wide_robots;
+  wide_robots.classes.robot_min_width = 0.5;
+  EXPECT_EQ(classes(wide_robots), std::set<TrackClass>{TrackClass::kBag});
+  PlanViewTrackerParams short_memory = wide_robots;
   short_memory.class_vote_decay = 0.9;
   EXPECT_TRUE(classes(short_memory).count(TrackClass::kRobot));
 }
@@ -1027,6 +1030,13 @@ TEST(PlanViewTracker, ClassesFromHeightAndWidth) {
   EXPECT_EQ(classify_track(0.5, 0.6), TrackClass::kRobot);    // a low, wide robot
   EXPECT_EQ(classify_track(2.5, 0.5), TrackClass::kUnknown);
   EXPECT_EQ(classify_track(0.05, 0.1), TrackClass::kUnknown);
+  // The plan view's classes: a bag seen long side on at 7 m (0.47 m tall, 0.51 m across) is a
+  // bag, not a robot; a robot shows its mast.
+  const ClassifierParams pv = PlanViewTrackerParams{}.classes;
+  EXPECT_EQ(classify_track(0.47, 0.51, pv), TrackClass::kBag);
+  EXPECT_EQ(classify_track(0.42, 0.50, pv), TrackClass::kBag);
+  EXPECT_EQ(classify_track(0.78, 0.45, pv), TrackClass::kRobot);
+  EXPECT_EQ(classify_track(0.5, 0.9, pv), TrackClass::kRobot);
 }
 
 TEST(PlanViewTracker, DrawingShowsMapsAndTracks) {

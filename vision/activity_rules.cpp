@@ -300,15 +300,21 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
     // pickup_distance on any measured frame of the last candidate_time (each at the place they
     // were last seen), less those since seen farther away.
     // Adds (or moves) everyone established within pickup_distance as a candidate taker.
+    // Where the owner stands on a tick both are seen is kept with each candidate: the owner beside
+    // the one who takes it, as they take it, makes an exchange.
     auto note_near = [&](bool seen_now_only) {
+      const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
+      if (owner && owner->last_seen != now) owner = nullptr;
       for (const auto& [id, p] : people_) {
         if (!established(p, now) || (seen_now_only && p.last_seen != now) || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
         auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
         if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
         c->x = p.x, c->y = p.y, c->seen = now;
+        if (owner && id != o.owner && p.last_seen == now) c->owner_distance = dist(owner->x, owner->y, p.x, p.y), c->owner_at = now;
       }
     };
     if (t->measured) {
+      o.measured_at = now;
       const int64_t keep = ns(kCandidateTime);
       std::erase_if(o.candidates, [&](const ObjectModel::Candidate& c) {
         const auto p = people_.find(c.id);
@@ -316,9 +322,6 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
                (p->second.last_seen == now && dist(p->second.x, p->second.y, o.x, o.y) > p_.pickup_distance);
       });
       note_near(false);
-      const Person* owner = o.owner >= 0 ? person(o.owner, now) : nullptr;
-      if (owner && owner->last_seen == now) o.owner_x = owner->x, o.owner_y = owner->y, o.owner_seen_at = now;
-      o.owner_seen = o.owner_seen_at >= 0 && now - o.owner_seen_at <= keep;
     } else {
       // Held, not measured: the tracker keeps a still bag at its place while something covers
       // it in the image. Whoever stands within pickup_distance of it then is the one covering
@@ -371,7 +374,8 @@ void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
       continue;
     }
     if (o.owner_away_since < 0) o.owner_away_since = now;
-    if (now - o.owner_away_since >= ns(p_.left_bag_time)) {
+    const bool seen = o.measured_at >= 0 && now - o.measured_at <= ns(kCandidateTime);
+    if (now - o.owner_away_since >= ns(p_.left_bag_time) && seen) {
       Event e = make_event(EventKind::kLeftBag, now, {o.x, o.y, o.z}, o.confidence);
       e.object_track = o.track;
       e.people = {o.owner};
@@ -445,11 +449,13 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
         out->push_back(e);
       }
     } else {
-      // An exchange when the owner stood within exchange_distance of the taker as it went.
-      double tx = 0, ty = 0;
+      // An exchange when the owner stood within exchange_distance of the taker as it went: on a
+      // tick within kCandidateTime of the taker's last by the bag, both seen.
+      bool handover = false;
       for (const auto& c : o.candidates)
-        if (c.id == o.taker) tx = c.x, ty = c.y;
-      const bool handover = o.owner >= 0 && o.owner_seen && dist(o.owner_x, o.owner_y, tx, ty) <= p_.exchange_distance;
+        if (c.id == o.taker)
+          handover = o.owner >= 0 && c.owner_at >= 0 && c.seen - c.owner_at <= ns(kCandidateTime) &&
+                     c.owner_distance <= p_.exchange_distance;
       const EventKind kind = handover ? EventKind::kExchange : EventKind::kBagTaken;
       const double conf = o.confidence * (t ? std::max(0.5, t->confidence) : 0.5);
       Event e = make_event(kind, now, {o.x, o.y, o.z}, conf);

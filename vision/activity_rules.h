@@ -16,8 +16,11 @@
 // person_confirm_time count as owners, takers or occluders.
 //
 // Rules.
-//  - left bag: the owner's track is farther than left_bag_distance (or gone) for left_bag_time.
-//    If the owner then takes the bag back, a cancellation (same id, cancelled = true) follows.
+//  - left bag: the owner's track is farther than left_bag_distance (or gone) for left_bag_time,
+//    and the bag is seen (its track measured within the last second): a bag the tracker holds
+//    hidden behind someone when it falls due is reported once it is seen again, and not at all
+//    if it turns out gone (picked up behind them: then bag taken). If the owner then takes the
+//    bag back, a cancellation (same id, cancelled = true) follows.
 //  - bag taken / exchange: the bag goes (its place is in view, not hidden behind a person, and
 //    has no bag for object_gone_time; or its bag is seen carried off) and someone who stood within
 //    pickup_distance of it in its last measured second (Track::measured; a tracker's coasting
@@ -26,7 +29,8 @@
 //    may be picking it up out of sight), moves off with it: the one a moving bag track goes with (carry_distance, same velocity, three ticks), else
 //    the first of them to move away (take_distance from the place and half that from where they
 //    stood) or out of view. The owner taking it back is no event; anybody else raises "exchange"
-//    when the owner was within exchange_distance of them when the bag went, else "bag taken"
+//    when the owner stood within exchange_distance of them as they took it (on a tick, both seen,
+//    within a second of the taker's last by the bag), else "bag taken"
 //    (also for bags present at the start or left by another).
 //  - unauthorised object: a person stands (slower than touch_still_speed) within touch_distance of a marked object (WatchedObject;
 //    the operator marks what may not be handled, as the laptop of the chapter's lab) for
@@ -139,6 +143,7 @@ class ActivityRules {
     int track = -1;                // the last bag track matched to it
     double x = 0, y = 0, z = 0;    // its place (running mean) and height (m)
     int64_t first_seen = 0, last_seen = 0;
+    int64_t measured_at = -1;      // last tick its track was measured (not held or predicted)
     int sightings = 0;
     bool confirmed = false;
     bool at_start = false;
@@ -154,11 +159,10 @@ class ActivityRules {
       int id = -1;
       double x = 0, y = 0;
       int64_t seen = 0;
+      double owner_distance = 1e9;  // from the owner, on the last tick both were seen (owner_at)
+      int64_t owner_at = -1;
     };
     std::vector<Candidate> candidates;
-    double owner_x = 0, owner_y = 0;  // where the owner stood then
-    bool owner_seen = false;          // ...if tracked then
-    int64_t owner_seen_at = -1;
     bool gone = false;             // its place has been seen empty for object_gone_time
     int taker = -1;                // who moved off with it once gone, -1 = not known yet
     int carry_who = -1, carry_ticks = 0;  // who a moving bag is seen with, on how many ticks running

@@ -128,6 +128,17 @@ TrackerKind planview_kind() {
        "with stereo_where: foreground, the first frames matched whole (the background's depth)"},
       {"full_stereo_every", ParamType::kInteger, 60.0, 0, 100000,
        "with stereo_where: foreground, one frame in this many matched whole after the first ones (0 = none)"},
+      // The tracker's rules for things that stand still (docs/TRACKING.md), each to switch off.
+      {"start_objects", ParamType::kBool, true, 0, 0,
+       "what stands in the map's free space from the first frame is an object, not background"},
+      {"split_still_frames", ParamType::kInteger, static_cast<double>(vision::PlanViewTrackerParams{}.split_still_frames), 0, 10000,
+       "frames a still residual of someone's blob stays before it is born as a thing put down (0 = off)"},
+      {"split_window", ParamType::kInteger, static_cast<double>(vision::PlanViewTrackerParams{}.split_window), 0, 10000,
+       "frames: a track born this recently beside a missed one is not its occluder (0 = off)"},
+      {"coast_min_sigmas", ParamType::kNumber, vision::PlanViewTrackerParams{}.coast_min_sigmas, 0, 100,
+       "a coasting track whose speed was under this many standard deviations is held still (0 = off)"},
+      {"hold_bag_on_blob", ParamType::kBool, vision::PlanViewTrackerParams{}.hold_bag_on_blob, 0, 0,
+       "a bag missed while its place is still on a blob is held there as hidden"},
   };
   k.make = [](const ParamSet& p, const SensorContext& ctx) -> Result<std::unique_ptr<vision::Tracker>> {
     vision::PlanViewSystemParams sp;
@@ -140,6 +151,11 @@ TrackerKind planview_kind() {
     sp.tracking.camera = ctx.camera.id;
     sp.tracking.template_size = p.integer("template_size");
     sp.tracking.track_threshold = p.number("track_threshold");
+    sp.start.enabled = p.boolean("start_objects");
+    sp.tracking.split_still_frames = p.integer("split_still_frames");
+    sp.tracking.split_window = p.integer("split_window");
+    sp.tracking.coast_min_sigmas = p.number("coast_min_sigmas");
+    sp.tracking.hold_bag_on_blob = p.boolean("hold_bag_on_blob");
     const std::string where = p.string("stereo_where");
     if (where != "foreground" && where != "everywhere")
       return bad_input("", 0, "stereo_where", "expected foreground or everywhere, got '" + where + "'");
