@@ -472,6 +472,25 @@ TEST(ActivityRules, ABagLeftBesideAStoppedRobotIsALeftBag) {
   EXPECT_EQ(events[0].stamp_ns, expected[0].stamp_ns);
 }
 
+// A robot stops beside a left bag before it falls due; the two are one blob and the bag's track
+// takes the robot's mast (classed robot from 10 s). The place is still seen occupied: the left bag
+// is reported when due.
+TEST(ActivityRules, ABagWhoseTrackTakesAStoppedRobotsClassIsStillALeftBag) {
+  auto plain = make_rules();
+  const auto expected = run(plain, 20, {owner_walks_off(), bag_at_5()});
+  ASSERT_EQ(expected.size(), 1u);
+  Actor bag = bag_at_5(4.5, 10);
+  Actor merged{100, TrackClass::kRobot, Path{{{10 + 1 / kHz, 5.1, -0.45}, {60, 5.1, -0.45}}}};
+  const Robots stopped = [](double t) {
+    return t >= 9 ? std::vector<ActivityRules::RobotPosition>{{5.6, -0.45}} : std::vector<ActivityRules::RobotPosition>{};
+  };
+  auto rules = make_rules();
+  const auto events = run(rules, 20, {owner_walks_off(), bag, merged}, stopped);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::kLeftBag);
+  EXPECT_NEAR(seconds(events[0].stamp_ns), seconds(expected[0].stamp_ns), 0.1);
+}
+
 // A robot driving right past a bag already left keeps the bag: the report comes as without it.
 TEST(ActivityRules, RobotDrivingPastALeftBagDoesNotHideIt) {
   auto plain = make_rules();

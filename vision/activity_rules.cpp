@@ -204,6 +204,14 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
   }
 
   match_objects(stamp_ns, bags, robots);
+  // A robot's track measured on a confirmed object's place (a robot stopped beside a left bag, the
+  // two in one blob, the bag's track taking the robot's mast) shows the place occupied: the
+  // object counts as seen for the left-bag rule, as it does not leave with a robot.
+  for (const Track& t : tracks) {
+    if (t.cls != TrackClass::kRobot || !t.measured) continue;
+    for (ObjectModel& o : objects_)
+      if (o.confirmed && !o.gone && dist(t.x, t.y, o.x, o.y) <= p_.object_match_distance) o.measured_at = stamp_ns;
+  }
   std::vector<Event> out;
   rule_left_bag(stamp_ns, &out);
   rule_taken(stamp_ns, dt, &out);

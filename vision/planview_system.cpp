@@ -148,18 +148,37 @@ Status PlanViewSystem::find_start_objects(const cv::Mat& depth, cv::Mat* floor_d
     any = any || keep[k];
   }
   if (!any) return Status::Ok();
-  // 3. Their pixels, with the floor's depth along each pixel's ray as the background's.
+  // 3. Their pixels, with the depth of what the map says is behind them as the background's:
+  //    along each pixel's ray beyond the object, the first wall or piece of furniture the ray's
+  //    foot crosses, else the floor. (Furniture is taken as reaching the ray: a nearer
+  //    background than the true one is relearnt once the object leaves, a farther one would
+  //    stay foreground.)
   start_mask_ = cv::Mat::zeros(depth.size(), CV_8U);
   *floor_depth = cv::Mat::zeros(depth.size(), CV_32F);
+  const double step = 0.5 * static_map_.resolution();
   for (const Pixel& px : pixels) {
     if (!keep[labels.at<int>(px.row, px.col)]) continue;
     const Eigen::Vector3d q = camera_.back_project_map(px.u, px.v, 1.0);  // the ray's point at depth 1
     const double drop = centre.z() - q.z();
     if (drop <= 1e-6) continue;
-    const float floor = static_cast<float>((centre.z() - pp.floor_z) / drop);
-    if (!(floor > depth.at<float>(px.v, px.u))) continue;
+    const double d0 = depth.at<float>(px.v, px.u);
+    double behind = (centre.z() - pp.floor_z) / drop;  // the floor
+    if (!(behind > d0)) continue;
+    const double horizontal = std::hypot(q.x() - centre.x(), q.y() - centre.y());  // m per metre of depth
+    if (horizontal > 1e-9) {
+      const double dd = step / horizontal;
+      for (double d = d0 + dd; d < behind; d += dd) {
+        int cx = 0, cy = 0;
+        const double x = centre.x() + (q.x() - centre.x()) * d, y = centre.y() + (q.y() - centre.y()) * d;
+        if (!static_map_.world_to_cell(Vec2{x, y}, &cx, &cy) || static_map_.at(cx, cy) != Cell::kFree) {
+          behind = d;
+          break;
+        }
+      }
+    }
+    if (!(behind > d0)) continue;
     start_mask_.at<uint8_t>(px.v, px.u) = 255;
-    floor_depth->at<float>(px.v, px.u) = floor;
+    floor_depth->at<float>(px.v, px.u) = static_cast<float>(behind);
   }
   return Status::Ok();
 }

@@ -53,10 +53,11 @@ struct DepthRegionParams {
 // waiting) would be background for good. Given the building's map (set_static_map: walls and
 // furniture), the first frame's points that stand above the floor in free space, at least
 // wall_margin from anything the map holds, in plan-view blobs of at least the tracker's birth
-// area and height, are not the building: their pixels' background depth becomes the floor's along
-// the pixel's ray (what the map says is behind them), so they are foreground, nearer than the
-// background, and tracked like anything that came later; when such a thing leaves, the floor it
-// uncovers matches that depth. Without a map nothing changes.
+// area and height, are not the building: their pixels' background depth becomes that of what the
+// map says is behind them along the pixel's ray (the first wall or furniture its foot crosses,
+// else the floor), so they are foreground, nearer than the background, and tracked like anything
+// that came later; when such a thing leaves, what it uncovers matches that depth, or lies farther
+// (a ray passing over low furniture) and is relearnt. Without a map nothing changes.
 struct StartObjectParams {
   bool enabled = true;
   double wall_margin = 0.3;  // m from the map's occupied cells (walls, furniture): SGBM spreads a

@@ -178,7 +178,8 @@ Status PlanViewTrackerParams::validate() const {
   if (!nonneg(birth_border_margin)) return param_error("birth_border_margin", "must be >= 0");
   if (!nonneg(birth_shadow_depth)) return param_error("birth_shadow_depth", "must be >= 0");
   if (split_window < 0) return param_error("split_window", "must be >= 0");
-  if (split_still_frames < 0) return param_error("split_still_frames", "must be >= 0");
+  if (split_still_frames < 0 || split_still_frames > 60000)
+    return param_error("split_still_frames", "must be 0 to 60000 frames, got " + std::to_string(split_still_frames));
   if (!nonneg(split_radius)) return param_error("split_radius", "must be >= 0");
   if (!nonneg(coast_min_sigmas)) return param_error("coast_min_sigmas", "must be >= 0");
   if (!nonneg(explain_distance)) return param_error("explain_distance", "must be >= 0");
@@ -208,6 +209,7 @@ struct PlanViewTracker::Impl {
     bool born = false;     // this frame
     bool hidden = false;   // this frame: missed while occluded (see occluded())
     bool coast_still = false;  // while coasting: held still (velocity not known to differ from zero)
+    int64_t updated_frame = 0;  // frame count when last updated (measured, fully or in part)
     int64_t born_frame = 0;                             // frame count at birth
     Eigen::Vector2d born_at = Eigen::Vector2d::Zero();  // map position at birth
     int label = 0;         // this frame: blob under the predicted position (0: none)
@@ -234,6 +236,7 @@ struct PlanViewTracker::Impl {
   int next_id = 1;
   int64_t frame = 0;  // frames tracked since creation or reset
   cv::Mat still_age;  // CV_16U per grid cell: frames running it has been a still residual
+  cv::Rect still_rect;  // where still_age may be non-zero (the last labelled rectangle)
   bool have_stamp = false;
   int64_t last_stamp = 0;
 
@@ -678,6 +681,7 @@ struct PlanViewTracker::Impl {
     }
     add_claim(c);
     t.updated = true;
+    t.updated_frame = frame;
     t.missed = false;
     ++t.hits;
     t.misses = 0;
@@ -738,6 +742,7 @@ struct PlanViewTracker::Impl {
       if (ok) {
         add_claim(c);
         t.updated = true;
+        t.updated_frame = frame;
         t.missed = false;
         t.misses = 0;
         t.confidence = 0.5 * std::clamp(1.0 - 0.5 * best / p.track_threshold, 0.0, 1.0);
@@ -811,7 +816,7 @@ struct PlanViewTracker::Impl {
       // keeps its velocity, optionally decaying. So is a track whose velocity, when it was last
       // measured, was not known to differ from zero (under coast_min_sigmas standard deviations
       // along itself): a track measured for a few frames only has a velocity of blob transients.
-      if (t.misses == 0 && t.occluded == 0) {
+      if (t.updated_frame == frame - 1) {  // the first miss since it was last measured
         const Eigen::Vector2d v = t.x.segment<2>(2);
         const double speed2 = v.squaredNorm();
         const double var = speed2 > 0 ? v.dot(t.P.block<2, 2>(2, 2) * v) / speed2 : 0.0;
@@ -892,6 +897,7 @@ struct PlanViewTracker::Impl {
       t.hits = 1;
       t.confirmed = p.min_hits <= 1;
       t.updated = true;
+      t.updated_frame = frame;
       t.born = true;
       t.born_frame = frame;
       t.born_at = bm;
@@ -909,22 +915,35 @@ struct PlanViewTracker::Impl {
   void still_residual_births() {
     if (p.split_still_frames <= 0) return;
     if (still_age.empty()) still_age = cv::Mat::zeros(grid.rows, grid.cols, CV_16U);
-    cv::Mat residual = cv::Mat::zeros(grid.rows, grid.cols, CV_8U);
-    if (!labels.empty()) {
-      std::vector<std::vector<const Trk*>> on(blobs.size());
-      for (const Trk& t : tracks) {
-        if (!t.updated || t.born) continue;
-        const int l = label_at_cell(template_cell(t));
-        if (l > 0 && static_cast<size_t>(l) < on.size()) on[l].push_back(&t);
+    // Residual cells lie in blobs, so inside this frame's labelled rectangle: ages elsewhere (in
+    // last frame's rectangle) drop to zero, and the work stays within the rectangle.
+    const cv::Rect roi = labels.empty() ? cv::Rect() : cv::Rect(label_origin.x, label_origin.y, labels.cols, labels.rows);
+    if (!still_rect.empty()) {
+      if (roi.empty()) {
+        still_age(still_rect).setTo(0);
+      } else {
+        const cv::Mat keep = still_age(roi).clone();
+        still_age(still_rect).setTo(0);
+        keep.copyTo(still_age(roi));
       }
-      for (int r = 0; r < labels.rows; ++r) {
-        const int* l = labels.ptr<int>(r);
-        const int row = r + label_origin.y;
-        for (int k = 0; k < labels.cols; ++k) {
-          if (!l[k] || on[l[k]].empty()) continue;
-          const int col = k + label_origin.x;
-          const Eigen::Vector2d m = grid.to_map(col, row);
-          bool far = true;
+    }
+    still_rect = roi;
+    if (roi.empty()) return;
+    std::vector<std::vector<const Trk*>> on(blobs.size());
+    for (const Trk& t : tracks) {
+      if (!t.updated || t.born) continue;
+      const int l = label_at_cell(template_cell(t));
+      if (l > 0 && static_cast<size_t>(l) < on.size()) on[l].push_back(&t);
+    }
+    // Ages: frames running each cell has been a residual.
+    cv::Mat age = still_age(roi);
+    for (int r = 0; r < labels.rows; ++r) {
+      const int* l = labels.ptr<int>(r);
+      uint16_t* a = age.ptr<uint16_t>(r);
+      for (int k = 0; k < labels.cols; ++k) {
+        bool far = l[k] && !on[l[k]].empty();
+        if (far) {
+          const Eigen::Vector2d m = grid.to_map(k + roi.x, r + roi.y);
           for (const Trk* t : on[l[k]]) {
             // Across the line of sight only: stereo smears an object along it.
             const Eigen::Vector2d c = t->x.head<2>() - surface_offset(t->x.head<2>(), t->x(5));
@@ -934,34 +953,30 @@ struct PlanViewTracker::Impl {
               break;
             }
           }
-          if (far) residual.at<uint8_t>(row, col) = 255;
         }
+        a[k] = far ? static_cast<uint16_t>(std::min(a[k] + 1, 60000)) : 0;
       }
     }
-    // Ages: frames running each cell has been a residual.
-    for (int row = 0; row < grid.rows; ++row) {
-      const uint8_t* res = residual.ptr<uint8_t>(row);
-      uint16_t* a = still_age.ptr<uint16_t>(row);
-      for (int col = 0; col < grid.cols; ++col) a[col] = res[col] ? static_cast<uint16_t>(std::min(a[col] + 1, 60000)) : 0;
-    }
-    cv::Mat still = still_age >= p.split_still_frames, parts;
+    cv::Mat still = age >= p.split_still_frames, parts;
     const int n = cv::connectedComponents(still, parts, 8, CV_32S);
     if (n <= 1) return;
     std::vector<Blob> pb(n);
-    for (int row = 0; row < parts.rows; ++row) {
-      const int* l = parts.ptr<int>(row);
-      const float* o = at(occ, 0, row);
-      const float* h = at(hgt, 0, row);
-      for (int col = 0; col < parts.cols; ++col) {
-        if (!l[col]) continue;
-        Blob& b = pb[l[col]];
-        b.mass += o[col];
-        b.cx += o[col] * col;
-        b.cy += o[col] * row;
-        b.max_height = std::max(b.max_height, static_cast<double>(h[col]));
-        b.sxx += o[col] * col * col;
-        b.sxy += o[col] * col * row;
-        b.syy += o[col] * static_cast<double>(row) * row;
+    for (int r = 0; r < parts.rows; ++r) {
+      const int* l = parts.ptr<int>(r);
+      const int row = r + roi.y;
+      const float* o = at(occ, roi.x, row);
+      const float* h = at(hgt, roi.x, row);
+      for (int k = 0; k < parts.cols; ++k) {
+        if (!l[k]) continue;
+        const double col = k + roi.x, y = row, w = o[k];
+        Blob& b = pb[l[k]];
+        b.mass += w;
+        b.cx += w * col;
+        b.cy += w * y;
+        b.max_height = std::max(b.max_height, static_cast<double>(h[k]));
+        b.sxx += w * col * col;
+        b.sxy += w * col * y;
+        b.syy += w * y * y;
       }
     }
     const double cell2 = grid.cell * grid.cell;
@@ -1004,6 +1019,8 @@ Result<PlanViewTracker> PlanViewTracker::create(const PlanViewGrid& grid, const 
 void PlanViewTracker::reset() {
   impl_->tracks.clear();
   impl_->still_age.release();
+  impl_->still_rect = cv::Rect();
+  impl_->frame = 0;
 }
 
 int PlanViewTracker::live_tracks() const { return static_cast<int>(impl_->tracks.size()); }

@@ -50,6 +50,7 @@ class TrackerSensor : public VisionSensor {
     auto tracker = kind_.make(p, ctx);
     if (!tracker) return bad_input("", 0, tracker.error().key, tracker.error().message);
     tracker_ = std::move(*tracker);
+    map_given_ = false;  // the new tracker gets the building on its first tick
     if (tracker_->needs_depth() != kind_.needs_depth) return internal_error("tracker sensor: the kind's depth flag is wrong");
     if (kind_.needs_depth) {
       const std::string disparity = p.string("disparity");

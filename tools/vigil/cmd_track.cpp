@@ -128,9 +128,9 @@ void add_track_command(CLI::App& app) {
   cmd->add_option("--frames", o->frames, "stop after this many frames (default: the whole source)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--camera-id", o->camera_id, "camera id written on the tracks (default: the source's camera or 'camera')");
   cmd->add_option("--map", o->map,
-                  "the building's map (a .floorplan.yaml, map_server YAML or Stage worldfile) for a recorded source: the "
-                  "plan view then tracks what stands in its free space from the first frame (a rendered source uses its "
-                  "scenario's map)");
+                  "planview: the building's map (a .floorplan.yaml, map_server YAML or Stage worldfile) for a recorded "
+                  "source: the plan view then tracks what stands in its free space from the first frame (a rendered "
+                  "source uses its scenario's map)");
   cmd->add_option("--max-range", o->max_range, "plan view: metres from the camera (default 8)")->check(CLI::PositiveNumber);
   cmd->add_option("--cell-size", o->cell_size, "plan view: cell side in metres (default 0.02)")->check(CLI::PositiveNumber);
   cmd->add_option("--learning-rate", o->learning_rate, "foreground: alpha (default 0.005)")->check(CLI::PositiveNumber);
@@ -155,6 +155,8 @@ void add_track_command(CLI::App& app) {
     }
     if (o->scale != 1.0)
       throw Exit{report(bad_input(o->source, 0, "--scale", "only the mser pipeline on a video: or images: source shrinks frames"))};
+    if (!o->map.empty() && o->pipeline != "planview")
+      throw Exit{report(bad_input(o->source, 0, "--map", "only the planview pipeline takes the building's map"))};
     if (o->pipeline == "planview" && (!(*source)->is_stereo() || !model)) {
       throw Exit{report(bad_input(o->source, 0, "--source",
                                   "the plan-view pipeline needs a calibrated stereo source with a pose (render:, or "
