@@ -289,26 +289,7 @@ struct PlanViewTracker::Impl {
       return;
     }
     const int n = cv::connectedComponents(v.mask(copied), labels, 8, CV_32S);
-    blobs.assign(std::max(n, 1), Blob{});
-    for (int r = 0; r < labels.rows; ++r) {
-      const int* l = labels.ptr<int>(r);
-      const int row = r + copied.y;
-      const float* o = at(occ, copied.x, row);
-      const float* h = at(hgt, copied.x, row);
-      for (int k = 0; k < labels.cols; ++k) {
-        if (!l[k]) continue;
-        Blob& b = blobs[l[k]];
-        const double col = k + copied.x;
-        b.mass += o[k];
-        b.cx += o[k] * col;
-        b.cy += o[k] * row;
-        b.max_height = std::max(b.max_height, static_cast<double>(h[k]));
-        b.sxx += o[k] * col * col;
-        b.sxy += o[k] * col * row;
-        b.syy += o[k] * static_cast<double>(row) * row;
-        if (row == 0 || row == grid.rows - 1 || col == 0 || col == grid.cols - 1) b.on_border = true;
-      }
-    }
+    blobs = blob_moments(labels, copied.tl(), n);
     for (Blob& b : blobs) {
       if (b.mass > 0) {
         b.cx /= b.mass;
@@ -562,6 +543,32 @@ struct PlanViewTracker::Impl {
     t.sum_o = so;
     t.sum_h = sh;
     t.core_o = sc;
+  }
+
+  // Mass, centre, tallest cell and second moments of each of the n labelled parts of `parts`
+  // (label 0: none), whose cell (0, 0) is grid cell `origin`, weighted by this frame's occupancy.
+  std::vector<Blob> blob_moments(const cv::Mat& parts, cv::Point origin, int n) const {
+    std::vector<Blob> out(std::max(n, 1));
+    for (int r = 0; r < parts.rows; ++r) {
+      const int* l = parts.ptr<int>(r);
+      const int row = r + origin.y;
+      const float* o = at(occ, origin.x, row);
+      const float* h = at(hgt, origin.x, row);
+      for (int k = 0; k < parts.cols; ++k) {
+        if (!l[k]) continue;
+        Blob& b = out[l[k]];
+        const double col = k + origin.x;
+        b.mass += o[k];
+        b.cx += o[k] * col;
+        b.cy += o[k] * row;
+        b.max_height = std::max(b.max_height, static_cast<double>(h[k]));
+        b.sxx += o[k] * col * col;
+        b.sxy += o[k] * col * row;
+        b.syy += o[k] * static_cast<double>(row) * row;
+        if (row == 0 || row == grid.rows - 1 || col == 0 || col == grid.cols - 1) b.on_border = true;
+      }
+    }
+    return out;
   }
 
   // Adds the occupancy near the object at cell `c` to the claims of this frame.
@@ -960,25 +967,7 @@ struct PlanViewTracker::Impl {
     cv::Mat still = age >= p.split_still_frames, parts;
     const int n = cv::connectedComponents(still, parts, 8, CV_32S);
     if (n <= 1) return;
-    std::vector<Blob> pb(n);
-    for (int r = 0; r < parts.rows; ++r) {
-      const int* l = parts.ptr<int>(r);
-      const int row = r + roi.y;
-      const float* o = at(occ, roi.x, row);
-      const float* h = at(hgt, roi.x, row);
-      for (int k = 0; k < parts.cols; ++k) {
-        if (!l[k]) continue;
-        const double col = k + roi.x, y = row, w = o[k];
-        Blob& b = pb[l[k]];
-        b.mass += w;
-        b.cx += w * col;
-        b.cy += w * y;
-        b.max_height = std::max(b.max_height, static_cast<double>(h[k]));
-        b.sxx += w * col * col;
-        b.sxy += w * col * y;
-        b.syy += w * y * y;
-      }
-    }
+    std::vector<Blob> pb = blob_moments(parts, roi.tl(), n);
     const double cell2 = grid.cell * grid.cell;
     for (int k = 1; k < n; ++k) {
       Blob& b = pb[k];
