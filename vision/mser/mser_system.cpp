@@ -1,6 +1,7 @@
 #include "vision/mser/mser_system.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <tuple>
@@ -85,8 +86,13 @@ void MserSystem::reset() {
 }
 
 bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  const auto t0 = Clock::now();
   if (!seg_.segment(bgr, &seg_out_, error)) return false;
+  const auto t1 = Clock::now();
   region_ids_ = tracker_.update(seg_out_, &seg_.lines());
+  const auto t2 = Clock::now();
   // Track statistics: frames seen, how far it moved.
   for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
     const int64_t id = region_ids_[r];
@@ -100,7 +106,10 @@ bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
   ++frame_;
   if (frame_ > p_.warmup_frames && frame_ <= p_.warmup_frames + p_.learn_frames) learn();
   classify();
+  const auto t3 = Clock::now();
   update_objects();
+  const auto t4 = Clock::now();
+  times_ = {ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4)};
   // Forget the statistics of tracks gone for good.
   if (frame_ % 50 == 0) {
     std::set<int64_t> live;

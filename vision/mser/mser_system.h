@@ -123,10 +123,17 @@ class MserSystem {
   // and the objects' boxes and ids.
   cv::Mat annotate(const cv::Mat& bgr) const;
   const MserSegmenter& segmenter() const { return seg_; }
+  // Milliseconds of the last frame by stage: segmentation (with feed-forward), the four tracking
+  // phases, the background model (learning and classifying), the objects.
+  struct StageTimes {
+    double segmentation = 0, tracking = 0, background = 0, objects = 0;
+  };
+  const StageTimes& stage_times() const { return times_; }
   // The models of ended objects, looked up when a new one appears.
   const ObjectModels& object_models() const { return models_; }
 
  private:
+  StageTimes times_;
   struct Entry {
     cv::Point2f centroid;
     float width = 0, height = 0;
