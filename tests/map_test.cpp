@@ -143,17 +143,13 @@ TEST(RealMaps, DiagFloor1LoadsAndPlansAcrossTheFloorQuickly) {
   const GridPathPlanner planner(*grid, 0.3);
   // Patrol graph vertices 2 (219, 728), at the west end, and 56 (2067, 746), at the east end.
   const Vec2 west = graph_pixel(219, 728), east = graph_pixel(2067, 746);
-  const auto t0 = std::chrono::steady_clock::now();
+  // Its time is a benchmark figure (`vigil bench plan`, "grid A*"), not a test's.
   const auto path = planner.plan(west, east);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::cout << "[ timing   ] DIAG_floor1 cross-map plan: " << ms << " ms, " << path.size()
-            << " points, " << path_length(path) << " m\n";
   ASSERT_GE(path.size(), 3u);
   EXPECT_EQ(path.front(), west);
   EXPECT_EQ(path.back(), east);
   EXPECT_GT(path_length(path), (east - west).norm());
   expect_path_clear(*grid, planner, path, 0.3);
-  EXPECT_LT(ms, 1000.0);  // about 50 ms in Release on 2 cores; generous for loaded machines
 }
 
 // ---------------------------------------------------------------------------------------------

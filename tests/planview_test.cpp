@@ -1331,83 +1331,9 @@ TEST(PlanViewRendered, DISABLED_CrowdReport) {
               run.scorer.total_switches(), run.scorer.summary().c_str());
 }
 
-// ============================================================== timing
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-TEST(PlanViewTiming, SyntheticFifteenPercentForegroundAt640x480) {
-  const auto cam = camera_at(Vector3d(0, 0, 2.5), 0, 20);
-  const Synthetic s = raycast(cam, {Box::on_floor(3.5, -0.9, 0.3, 0.5, 1.75), Box::on_floor(3.5, 0.9, 0.3, 0.5, 1.75),
-                                    Box::on_floor(4.5, 0, 0.3, 0.6, 1.8), Box::on_floor(5.5, -1.6, 0.4, 0.4, 0.5)});
-  const double fraction = cv::countNonZero(s.mask) / static_cast<double>(s.mask.total());
-  ASSERT_GT(fraction, 0.14);
-  auto pipe = PlanViewPipeline::create(cam);
-  ASSERT_TRUE(pipe.ok());
-  PlanView pv;
-  constexpr int kFrames = 60;
-  double build_ms = 0, track_ms = 0;
-  auto tracker = PlanViewTracker::create(pipe->builder().grid());
-  ASSERT_TRUE(tracker.ok());
-  for (int f = 0; f < kFrames; ++f) {
-    auto t0 = std::chrono::steady_clock::now();
-    ASSERT_TRUE(pipe->builder().build(s.mask, s.depth, &pv).ok());
-    if (f > 0) build_ms += ms_since(t0);
-    t0 = std::chrono::steady_clock::now();
-    ASSERT_TRUE(tracker->update(pv, stamp_of(f)).ok());
-    if (f > 0) track_ms += ms_since(t0);
-  }
-  build_ms /= kFrames - 1;
-  track_ms /= kFrames - 1;
-  std::printf("[timing] 640x480, %.1f%% foreground, %d cells: plan view %.3f ms, tracking %.3f ms (%d tracks)\n",
-              100 * fraction, pv.grid.cols * pv.grid.rows, build_ms, track_ms, tracker->live_tracks());
-  RecordProperty("plan_view_ms", std::to_string(build_ms));
-  RecordProperty("tracking_ms", std::to_string(track_ms));
-#ifdef NDEBUG
-  EXPECT_LT(build_ms, 5.0);
-  EXPECT_LT(build_ms + track_ms, 8.0);
-#endif
-}
-
-TEST(PlanViewTiming, RenderedCrowdAt640x480And320x240) {
-  // dis_crowd from 8 s: several people in view at once.
-  for (const auto& [W, H] : {std::pair{640, 480}, std::pair{320, 240}}) {
-    auto w = world_at("dis_crowd.yaml", 8.0);
-    ASSERT_TRUE(w);
-    CameraSpec spec = *find_camera(*w, "cam_corridor");
-    spec.width = W;
-    spec.height = H;
-    const StereoCameraModel cam = render::camera_model(spec);
-    auto r = renderer(W, H);
-    ASSERT_TRUE(r);
-    auto b = PlanViewBuilder::create(cam);
-    ASSERT_TRUE(b.ok());
-    auto tracker = PlanViewTracker::create(b->grid());
-    ASSERT_TRUE(tracker.ok());
-    PlanView pv;
-    double build_ms = 0, track_ms = 0, fg = 0;
-    constexpr int kFrames = 20;
-    for (int f = 0; f < kFrames; ++f) {
-      for (int k = 0; k < 7; ++k) ASSERT_TRUE(w->advance().ok());
-      StereoFrame fr;
-      ASSERT_TRUE(r->render(render::build_render_scene(*w, render::scene_options_for(*w, &spec)), cam, &fr).ok());
-      const cv::Mat mask = fr.labels != 0;
-      fg += cv::countNonZero(mask) / static_cast<double>(mask.total());
-      auto t0 = std::chrono::steady_clock::now();
-      ASSERT_TRUE(b->build(mask, fr.depth, &pv).ok());
-      build_ms += ms_since(t0);
-      t0 = std::chrono::steady_clock::now();
-      ASSERT_TRUE(tracker->update(pv, w->time()).ok());
-      track_ms += ms_since(t0);
-    }
-    std::printf("[timing] dis_crowd cam_corridor %dx%d, %.1f%% foreground, %d tracks: plan view %.3f ms, "
-                "tracking %.3f ms\n",
-                W, H, 100 * fg / kFrames, tracker->live_tracks(), build_ms / kFrames, track_ms / kFrames);
-    RecordProperty("plan_view_ms_" + std::to_string(W), std::to_string(build_ms / kFrames));
-    RecordProperty("tracking_ms_" + std::to_string(W), std::to_string(track_ms / kFrames));
-  }
-}
+// The plan view's and the tracker's times per frame are benchmark figures, not test assertions
+// (a shared machine's speed varies): `vigil bench planview` (docs/PERFORMANCE.md), with
+// `--scenario scenarios/dis_crowd.yaml --from 8` for a crowd.
 
 }  // namespace
 }  // namespace vigil::vision

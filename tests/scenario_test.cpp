@@ -614,11 +614,9 @@ TEST_F(ScenarioTest, FuzzedScenariosNeverCrashOrHang) {
   std::mt19937 rng(20240611);
   ScenarioContext ctx;
   ctx.plugin_exists = [](const std::string& name) { return name == "wander" || name == "waypoint_follower"; };
-  const auto t0 = std::chrono::steady_clock::now();
-  const double budget_s = 20.0;
+  // Bounded by count, not by time: a hang shows as ctest's timeout, a slow machine only runs longer.
   int runs = 0, ok = 0, errors = 0;
   for (; runs < 3000; ++runs) {
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > budget_s) break;
     const std::string text = mutate(kGood, rng);
     auto r = parse(text, ctx);
     if (r.ok()) {
@@ -629,9 +627,7 @@ TEST_F(ScenarioTest, FuzzedScenariosNeverCrashOrHang) {
       ASSERT_FALSE(r.error().str().empty());
     }
   }
-  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   RecordProperty("runs", runs);
-  EXPECT_EQ(runs, 3000) << "the fuzz run did not finish within " << budget_s << " s (" << elapsed << " s)";
   // Both outcomes occur: mutations in comments or values stay valid, most break something.
   EXPECT_GT(ok, 0);
   EXPECT_GT(errors, runs / 2);

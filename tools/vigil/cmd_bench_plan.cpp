@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/rng.h"
+#include "planning/grid/grid_astar.h"
 #include "planning/path_planner.h"
 #include "tools/vigil/commands.h"
 #include "world/floorplan.h"
@@ -129,6 +130,26 @@ void add_bench_plan_command(CLI::App* bench) {
                                                         static_cast<uint32_t>(o->seed)));
         planners.push_back(planning::make_ompl_baseline(ig, planning::OmplBaseline::kRrtConnect, o->ompl_time,
                                                         static_cast<uint32_t>(o->seed)));
+      }
+      // The scripted people's grid A* (8-connected, then line of sight) on the same queries:
+      // its figure was a time bound in tests/map_test.cpp.
+      {
+        const planning::GridPathPlanner people(*grid, o->radius);
+        std::vector<double> ms;
+        int found = 0;
+        for (const auto& q : queries) {
+          const auto t0 = std::chrono::steady_clock::now();
+          found += !people.plan(q.start, q.goal).empty();
+          ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        std::printf("%-12s %-48s %4d/%-3zu %10.3f %10.3f\n", mc.name.c_str(), "grid A* (scripted people's paths)", found,
+                    queries.size(), percentile(ms, 0.5), percentile(ms, 0.95));
+        results.push_back({{"map", mc.name},
+                           {"planner", "grid A* (scripted people)"},
+                           {"queries", queries.size()},
+                           {"solved", found},
+                           {"median_ms", percentile(ms, 0.5)},
+                           {"p95_ms", percentile(ms, 0.95)}});
       }
       for (auto& planner : planners) {
         std::vector<double> ms, ratio;
