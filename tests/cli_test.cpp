@@ -47,6 +47,41 @@ TEST(Cli, EveryShippedScenarioValidates) {
   EXPECT_EQ(o.code, 0) << o.out;
 }
 
+// The soak's memory log (tools/soak.sh): a sample every 10 s of simulated time, the picture and
+// the figures beside it, and the same ground truth as without it; an unwritable log is exit 2.
+TEST(Cli, RunMemoryLogSamplesEveryTenSimulatedSeconds) {
+  const fs::path a = temp_dir("mem_a"), b = temp_dir("mem_b");
+  const std::string sc = scenario("dis_patrol_team").string();
+  const Output with = vigil_cmd("run " + sc + " --out " + a.string() + " --duration 35 --no-video --quiet --memory-log " +
+                                (a / "memory.csv").string());
+  ASSERT_EQ(with.code, 0) << with.out;
+  EXPECT_NE(with.out.find("memory: "), std::string::npos) << with.out;
+  std::istringstream csv(slurp(a / "memory.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "sim_s,wall_s,rss_mb");
+  std::vector<double> times;
+  while (std::getline(csv, line)) {
+    double t = 0, wall = 0, mb = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &wall, &mb), 3) << line;
+    EXPECT_GT(mb, 10.0) << "a resident set of a few MB is not this process's";
+    times.push_back(t);
+  }
+  ASSERT_EQ(times.size(), 5u) << "0, 10, 20, 30 s and the end";
+  EXPECT_NEAR(times[1], 10.0, 0.05);
+  EXPECT_NEAR(times.back(), 35.0, 0.05);
+  EXPECT_TRUE(fs::exists(a / "memory.png"));
+  const auto fig = nlohmann::json::parse(slurp(a / "memory.json"));
+  EXPECT_EQ(fig["samples"], 5);
+  EXPECT_TRUE(fig.contains("slope_mb_per_hour"));
+  const Output without = vigil_cmd("run " + sc + " --out " + b.string() + " --duration 35 --no-video --quiet");
+  ASSERT_EQ(without.code, 0) << without.out;
+  EXPECT_EQ(slurp(a / "ground_truth.jsonl"), slurp(b / "ground_truth.jsonl"));
+  const Output bad = vigil_cmd("run " + sc + " --out " + b.string() + " --duration 1 --quiet --memory-log /proc/no/such.csv");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--memory-log"), std::string::npos) << bad.out;
+}
+
 TEST(Cli, RunWritesOutputsAndIsDeterministic) {
   const fs::path a = temp_dir("run_a"), b = temp_dir("run_b"), c = temp_dir("run_c");
   const std::string sc = scenario("dis_left_bag").string();

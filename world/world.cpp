@@ -15,6 +15,7 @@ constexpr double kReach = 0.9;             // m from a person's centre to an obj
 constexpr double kArrive = 0.12;           // m: a path point counts as reached
 constexpr double kPersonClearance = 0.30;  // m kept from walls on planned paths
 constexpr SimTime kStuckWindow = 2 * kNsPerSecond;
+constexpr double kStalledArrive = 0.4;     // m: held this near the last point for a stuck window: arrived
 constexpr double kDefaultHandSeconds = 1.0;
 
 bool is_bag(const ObjectEntity& o) { return o.spec.kind == ObjectKind::kBag; }
@@ -340,6 +341,7 @@ Status World::plan_walk(int i, Vec2 goal, int line, const std::string& what) {
   }
   p.path_index = p.path.size() > 1 ? 1 : 0;
   p.phase = PersonEntity::Phase::kWalking;
+  p.stalled_at_goal = false;
   p.progress_check = time_ + kStuckWindow;
   p.progress_distance = (p.path.back() - p.pose.position()).norm();
   return Status::Ok();
@@ -572,7 +574,8 @@ Status World::step_person(int i) {
     const Vec2 to = p.path[p.path_index] - pos;
     const double dist_goal = (p.path.back() - pos).norm();
     const bool in_reach = p.approaching && (p.reach_target - pos).norm() <= kReach;
-    if (in_reach || (p.path_index + 1 == p.path.size() && to.norm() < kArrive)) {
+    if (in_reach || (p.path_index + 1 == p.path.size() && to.norm() < kArrive) || p.stalled_at_goal) {
+      p.stalled_at_goal = false;
       if (p.approaching) {
         p.phase = PersonEntity::Phase::kActing;
         p.phase_end = time_ + from_seconds(p.hand_seconds);
@@ -604,7 +607,9 @@ Status World::step_person(int i) {
       }
       // Replan when pushed off course and making no progress.
       if (time_ >= p.progress_check) {
-        if (dist_goal > p.progress_distance - 0.2) {
+        if (p.path_index + 1 == p.path.size() && dist_goal < kStalledArrive && dist_goal > p.progress_distance - 0.05) {
+          p.stalled_at_goal = true;  // arrives on the next step
+        } else if (dist_goal > p.progress_distance - 0.2) {
           auto path = person_paths_->plan(pos, p.path.back());
           if (!path.empty()) {
             p.path = std::move(path);

@@ -78,6 +78,9 @@ struct PersonEntity {
   size_t step_index = 0; // current script step
   enum class Phase { kStart, kWalking, kActing, kDone } phase = Phase::kStart;
   bool approaching = false;  // walking to reach an object or drop point before acting
+  // Held off the last point of a walk (by the repulsion of a thing beside it) without progress
+  // for a stuck window while close to it: counts as arrived (otherwise the walk never ends).
+  bool stalled_at_goal = false;
   std::vector<Vec2> path;
   size_t path_index = 0;
   SimTime phase_end = 0;

@@ -14,6 +14,7 @@
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "plugins/vision_sensors/vision_sensor.h"
 #include "tools/vigil/commands.h"
+#include "tools/vigil/memory_log.h"
 #include "tools/vigil/plugin_search.h"
 #include "world/plugin.h"
 #include "world/runner.h"
@@ -31,6 +32,7 @@ void add_run_command(CLI::App& app) {
     std::string sensor;
     std::string dds_config;
     std::string team_transport = "dds";
+    std::string memory_log;
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a scenario headless and write its outputs");
@@ -48,6 +50,9 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--team-transport", opts->team_transport,
                   "how team robots' messages travel: dds (a DDS participant per robot) or local (in-process bus)")
       ->capture_default_str();
+  cmd->add_option("--memory-log", opts->memory_log,
+                  "write this process's resident memory every 10 s of simulated time to this CSV, with a picture (.png) and "
+                  "figures (.json) beside it (tools/soak.sh)");
   cmd->callback([opts] {
     PluginRegistry registry;
     register_builtin_plugins(registry);
@@ -182,6 +187,18 @@ void add_run_command(CLI::App& app) {
         }
       };
     }
+    std::optional<MemoryLog> memory;
+    if (!opts->memory_log.empty()) {
+      auto m = MemoryLog::open(opts->memory_log);
+      if (!m) throw Exit{report(m.error())};
+      memory.emplace(std::move(*m));
+      auto inner = ro.before_step;
+      MemoryLog* mp = &*memory;
+      ro.before_step = [inner, mp](World& w) {
+        if (inner) inner(w);
+        mp->maybe_sample(to_seconds(w.time()));
+      };
+    }
     auto summary = run_scenario(*scenario, ro);
     if (tty && !opts->quiet) std::fprintf(stderr, "\n");
     if (!summary) throw Exit{report(summary.error())};
@@ -195,6 +212,7 @@ void add_run_command(CLI::App& app) {
                   static_cast<unsigned long long>(team_bus->delivered()),
                   static_cast<unsigned long long>(team_bus->rejected()));
     }
+    if (memory) std::printf("%s\n", memory->finish(summary->sim_seconds).c_str());
     std::printf("ground_truth_sha256 %s\noutputs in %s\n", summary->ground_truth_sha256.c_str(), ro.out_dir.c_str());
   });
 }
