@@ -59,11 +59,13 @@ TEST(Cli, RunMemoryLogSamplesEveryTenSimulatedSeconds) {
   std::istringstream csv(slurp(a / "memory.csv"));
   std::string line;
   std::getline(csv, line);
-  EXPECT_EQ(line, "sim_s,wall_s,rss_mb");
+  EXPECT_EQ(line, "sim_s,wall_s,rss_mb,heap_mb");
   std::vector<double> times;
   while (std::getline(csv, line)) {
-    double t = 0, wall = 0, mb = 0;
-    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &wall, &mb), 3) << line;
+    double t = 0, wall = 0, mb = 0, heap = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &t, &wall, &mb, &heap), 4) << line;
+    EXPECT_GT(heap, 1.0);
+    EXPECT_LT(heap, mb * 2);
     EXPECT_GT(mb, 10.0) << "a resident set of a few MB is not this process's";
     times.push_back(t);
   }

@@ -2,6 +2,7 @@
 // controller (plugins/team) patrolling the DIS graph with the real navigator.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -170,9 +171,32 @@ robots:
 )";
 }
 
+// A reader that joins the task-assignment topic now: the samples about `incident` it receives
+// within a second (the writers' durable history of live instances).
+size_t late_joiner_samples(const dds::DomainOptions& domain, uint64_t incident) {
+  auto p = dds::Participant::create(domain);
+  EXPECT_TRUE(p.ok()) << p.error().str();
+  if (!p.ok()) return 0;
+  auto rd = dds::Reader::create(**p, dds::Topic::kTaskAssignments);
+  EXPECT_TRUE(rd.ok()) << rd.error().str();
+  if (!rd.ok()) return 0;
+  size_t n = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < end) {
+    (*rd)->wait(0.1);
+    EXPECT_TRUE((*rd)->take_each([&](const void* sample, const dds_sample_info_t&) {
+      n += static_cast<const vigil_msgs_TaskAssignment*>(sample)->incident == incident;
+    }).ok());
+  }
+  return n;
+}
+
 struct TeamRun {
   RunSummary summary;
   fs::path dir;
+  // Over DDS: the task-assignment instances the writers hold registered at 40 s and at the end,
+  // and the samples of incident 42 a reader joining then receives (durable history).
+  size_t instances_at_40s = 0, instances_at_end = 0, late_joiner_at_40s = 0, late_joiner_at_end = 0;
   std::vector<planning::patrol::Visit> visits;
 };
 
@@ -211,10 +235,19 @@ TeamRun run_team(const std::string& strategy, double duration, const std::string
     EXPECT_TRUE(b.ok()) << b.error().str();
     if (!b.ok()) return r;
     dds_bus = std::move(*b);
-    ro.exchange_messages = [&](World& w) { return dds_bus->exchange(w); };
+    ro.exchange_messages = [&](World& w) {
+      Status st = dds_bus->exchange(w);
+      if (w.time() == from_seconds(40.0)) {
+        r.instances_at_40s = dds_bus->assignment_instances();
+        r.late_joiner_at_40s = late_joiner_samples(dds_bus->domain(), 42);
+      }
+      return st;
+    };
   }
   auto s = run_scenario(*sc, ro);
   if (dds_bus) {
+    r.instances_at_end = dds_bus->assignment_instances();
+    r.late_joiner_at_end = late_joiner_samples(dds_bus->domain(), 42);
     EXPECT_GT(dds_bus->written(), 100u);
     EXPECT_EQ(dds_bus->delivered(), dds_bus->written());  // two robots: each message has one recipient
   }
@@ -577,6 +610,24 @@ void post_incident_at_20s(World& w) {
   t.goal = {21.0, 3.3};
   t.label = "left_bag";
   for (const char* r : {"robot1", "robot2"}) EXPECT_TRUE(w.post_task(r, t).ok());
+}
+
+// Over DDS, an incident's task-assignment instances (one per sender and incident, each with its
+// history) are unregistered once the task is done: before, every incident left them in every
+// writer and reader for the rest of the run, a growth of megabytes an hour in the soak.
+TEST(Team, AFinishedTasksAssignmentInstancesAreUnregistered) {
+  TeamRun r = run_team("cyclic", 120, "dds_done", {}, true, post_incident_at_20s);
+  bool done = false;
+  for (const std::string& l : file_lines(r.dir / "robots.jsonl")) {
+    auto j = nlohmann::json::parse(l);
+    done = done || (j.value("task_id", uint64_t{0}) == 42 && j.value("event", "") == "response_done");
+  }
+  ASSERT_TRUE(done) << "incident 42 was served and finished within the run";
+  EXPECT_GT(r.instances_at_40s, 0u) << "while the task runs, its instances are there";
+  EXPECT_GT(r.late_joiner_at_40s, 0u) << "and a reader joining then receives their history";
+  EXPECT_EQ(r.instances_at_end, 0u);
+  EXPECT_EQ(r.late_joiner_at_end, 0u) << "once done, nothing of it is kept for a late joiner";
+  fs::remove_all(r.dir);
 }
 
 // The goal follows the belief: incident 42 reaches the robots at 20 s placed 2.5 m short of where

@@ -193,6 +193,12 @@ Status Writer::write_raw(const void* sample) {
   return Status::Ok();
 }
 
+Status Writer::unregister_raw(const void* sample) {
+  const dds_return_t rc = dds_unregister_instance(entity_, sample);
+  if (rc < 0) return internal_error(dds_error("dds_unregister_instance", rc));
+  return Status::Ok();
+}
+
 int Writer::wait_for_readers(int n, double timeout_s) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   for (;;) {

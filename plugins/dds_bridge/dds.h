@@ -80,6 +80,9 @@ class Writer : public Endpoint {
   static Result<std::unique_ptr<Writer>> create(const Participant& p, Topic topic, const TopicQos& qos = {});
   // Writes one generated sample of the writer's topic type.
   Status write_raw(const void* sample);
+  // Unregisters (and so disposes) the instance whose key fields `sample` holds: the writer and
+  // the readers drop its history, a late joiner no longer receives it.
+  Status unregister_raw(const void* sample);
   // Waits until at least `n` readers have matched (or the timeout passes); returns the number.
   int wait_for_readers(int n, double timeout_s);
 };

@@ -11,6 +11,7 @@
 
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -101,6 +102,10 @@ class DdsTeamBus {
   uint64_t delivered() const { return delivered_; }
   uint64_t rejected() const { return rejected_; }
   uint64_t assignments_written() const { return assignments_written_; }  // of written()
+  // Task-assignment instances its writers hold registered (a finished task's are unregistered).
+  size_t assignment_instances() const;
+  // The domain and session (partition) the bus's participants use.
+  const DomainOptions& domain() const { return options_.domain; }
 
  private:
   DdsTeamBus() = default;
@@ -113,6 +118,7 @@ class DdsTeamBus {
     std::unique_ptr<Reader> assign_reader;
     std::unique_ptr<RobotStateWriter> state;  // its robot's vigil_robot_state
     uint64_t number = 0, assign_number = 0;  // messages written so far, per topic
+    std::set<uint64_t> assign_instances;     // incidents it has an assignment instance of
   };
   std::vector<Node> nodes_;
   Options options_;
@@ -158,6 +164,8 @@ class DdsTeamLink {
   std::unique_ptr<Reader> assign_reader_;
   std::unique_ptr<RobotStateWriter> state_;
   uint64_t number_ = 0, assign_number_ = 0;
+  std::set<uint64_t> assign_instances_;  // incidents this robot has an assignment instance of
+  std::map<uint64_t, double> done_at_;    // incidents whose task is done: when (simulated s)
   uint64_t written_ = 0, delivered_ = 0, rejected_ = 0, stale_ = 0, assignments_written_ = 0;
 };
 

@@ -238,7 +238,8 @@ Status VisionSensorHost::emit(Attached* a, const World& world, int64_t stamp_ns,
     if (writing_) {
       if (Status s = out_.write(t); !s) return s;
     }
-    tracks_.push_back(std::move(t));
+    ++track_count_;
+    if (keep_tracks_) tracks_.push_back(std::move(t));
   }
   return Status::Ok();
 }

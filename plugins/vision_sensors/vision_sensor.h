@@ -101,7 +101,11 @@ class VisionSensorHost : public RunObserver {
   Status after_step(const World& world) override;
   Status finish(const World& world) override;
 
+  // Every track reported so far, in order (kept in memory unless set_keep_tracks(false): a long
+  // run that writes tracks.jsonl keeps none, so its memory stays flat), and how many there were.
   const std::vector<vision::Track>& tracks() const { return tracks_; }
+  size_t track_count() const { return track_count_; }
+  void set_keep_tracks(bool on) { keep_tracks_ = on; }
   const std::vector<vision::Event>& events() const { return events_; }
   // Called with every event as it is raised (after it is written); an error stops the run.
   void set_event_sink(std::function<Status(const vision::Event&)> sink) { sink_ = std::move(sink); }
@@ -131,6 +135,8 @@ class VisionSensorHost : public RunObserver {
   std::vector<std::unique_ptr<Attached>> sensors_;
   double robot_radius_ = 0.5;  // m, the rules' robot_radius (set at start())
   std::vector<vision::Track> tracks_;
+  size_t track_count_ = 0;
+  bool keep_tracks_ = true;
   std::vector<vision::Event> events_;
   std::function<Status(const vision::Event&)> sink_;
   vision::TrackJsonlWriter out_;

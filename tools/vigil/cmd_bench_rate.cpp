@@ -76,14 +76,14 @@ void add_bench_rate_command(CLI::App* bench) {
       int64_t frames = 0;
       for (const auto& [id, n] : rig.frames()) frames += n;
       std::printf("%-62s %10.1f %10.2f %14lld %8zu\n", cfg.name, sum->wall_seconds, sum->real_time_factor,
-                  static_cast<long long>(frames), (*host)->tracks().size());
+                  static_cast<long long>(frames), (*host)->track_count());
       std::fflush(stdout);
       if (cfg.foreground && cfg.threads) ours_rtf = sum->real_time_factor;
       if (!cfg.foreground && !cfg.threads) before_rtf = sum->real_time_factor;
       results.push_back({{"pipeline", cfg.name}, {"stereo_where", cfg.foreground ? "foreground" : "everywhere"},
                          {"camera_threads", cfg.threads}, {"wall_seconds", sum->wall_seconds},
                          {"real_time_factor", sum->real_time_factor}, {"camera_frames", frames},
-                         {"tracks", (*host)->tracks().size()}});
+                         {"tracks", (*host)->track_count()}});
     }
     if (before_rtf > 0) std::printf("speed-up over the pipeline before: %.2fx\n", ours_rtf / before_rtf);
     if (!o->json.empty()) {

@@ -198,6 +198,7 @@ void add_camera_node(CLI::App& app) {
     if (recorded) rig.set_recorded_source(o->camera, std::move(recorded));
     auto host = sensors::VisionSensorHost::create(sc, &rig);
     if (!host) throw Exit{report(host.error())};
+    (*host)->set_keep_tracks(false);  // a node runs for hours: nothing kept but what it publishes
     int published = 0;
     dds::CameraEventPublisher* pp = pub->get();
     (*host)->set_event_sink([pp, &published](const vision::Event& e) {

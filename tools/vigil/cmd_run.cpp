@@ -88,7 +88,8 @@ void add_run_command(CLI::App& app) {
     if (opts->seed) scenario->seed = *opts->seed;
     auto host = sensors::VisionSensorHost::create(*scenario, &rig);
     if (!host) throw Exit{report(host.error())};
-    (*host)->set_videos(ro.video);  // cameras/<camera>_<plugin>.avi: what each tracker shows
+    (*host)->set_videos(ro.video);
+    (*host)->set_keep_tracks(false);  // written to tracks.jsonl as they come  // cameras/<camera>_<plugin>.avi: what each tracker shows
     // Their activity rules' events go through DDS to the video server (in this process, on the
     // loopback configuration unless --dds-config), which writes events.jsonl.
     std::unique_ptr<dds::DdsEventRelay> relay;

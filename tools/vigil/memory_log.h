@@ -1,5 +1,6 @@
 // Resident memory over a run (`vigil run --memory-log FILE`, tools/soak.sh): sampled every
-// `period_s` of simulated time from /proc/self/statm, written as CSV (sim_s, wall_s, rss_mb),
+// `period_s` of simulated time from /proc/self/statm, with the heap in use (glibc mallinfo2),
+// written as CSV (sim_s, wall_s, rss_mb, heap_mb),
 // with a picture of the curve and the figures a soak is judged by.
 #pragma once
 
@@ -29,7 +30,7 @@ class MemoryLog {
   std::string finish(double sim_s, double warmup_share = 0.1);
 
   struct Sample {
-    double sim_s, wall_s, rss_mb;
+    double sim_s, wall_s, rss_mb, heap_mb;
   };
   const std::vector<Sample>& samples() const { return samples_; }
 
