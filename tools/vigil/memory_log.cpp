@@ -114,7 +114,7 @@ std::string MemoryLog::finish(double sim_s, double warmup_share) {
               cv::LINE_AA);
   cv::rectangle(img, {L, T}, {W - R, H - B}, cv::Scalar(60, 60, 60));
   char title[200];
-  std::snprintf(title, sizeof title, "memory (MB) over simulated minutes; resident after warm-up %+.2f MB/h (peak %.1f MB), heap %+.2f MB/h",
+  std::snprintf(title, sizeof title, "MB over simulated minutes; after warm-up: resident %+.2f MB/h (peak %.0f), heap %+.2f MB/h",
                 slope, peak, heap_slope);
   cv::putText(img, title, {L, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(20, 20, 20), 1, cv::LINE_AA);
   std::filesystem::path png = csv_;
