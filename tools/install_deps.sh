@@ -12,6 +12,7 @@ PKGS=(
   libosmesa6-dev libgl-dev mesa-common-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
+  iproute2 nftables
 )
 
 missing=()
