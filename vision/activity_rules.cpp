@@ -315,7 +315,8 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
       if (owner && owner->last_seen != now) owner = nullptr;
       for (const auto& [id, p] : people_) {
         if (!established(p, now) || (seen_now_only && p.last_seen != now) || dist(p.x, p.y, o.x, o.y) > p_.pickup_distance) continue;
-        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [&](const auto& c) { return c.id == id; });
+        const int pid = id;  // a structured binding cannot be captured before C++20 in clang 14
+        auto c = std::find_if(o.candidates.begin(), o.candidates.end(), [pid](const auto& c) { return c.id == pid; });
         if (c == o.candidates.end()) c = o.candidates.insert(o.candidates.end(), ObjectModel::Candidate{id});
         c->x = p.x, c->y = p.y, c->seen = now;
         if (owner && id != o.owner && p.last_seen == now) c->owner_distance = dist(owner->x, owner->y, p.x, p.y), c->owner_at = now;

@@ -75,12 +75,13 @@ Result<ParamSet> resolve_params(const std::vector<ParamSpec>& specs,
     if (!type_matches(spec.type, v)) {
       return bad_input(file, entry.line, key, std::string("expected a ") + to_string(spec.type));
     }
+    const int line = entry.line;  // a structured binding cannot be captured before C++20 in clang 14
     auto check = [&](double x) -> Status {
-      if (!std::isfinite(x)) return bad_input(file, entry.line, key, "must be a finite number");
+      if (!std::isfinite(x)) return bad_input(file, line, key, "must be a finite number");
       if (x < spec.min || x > spec.max)
-        return bad_input(file, entry.line, key, "value " + std::to_string(x) + " outside " + format_range(spec));
+        return bad_input(file, line, key, "value " + std::to_string(x) + " outside " + format_range(spec));
       if (spec.type == ParamType::kInteger && x != std::floor(x))
-        return bad_input(file, entry.line, key, "expected an integer");
+        return bad_input(file, line, key, "expected an integer");
       return Status::Ok();
     };
     if (auto* d = std::get_if<double>(&v)) {

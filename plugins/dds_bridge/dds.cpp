@@ -1,6 +1,7 @@
 #include "plugins/dds_bridge/dds.h"
 
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -51,8 +52,16 @@ dds_qos_t* make_qos(const TopicQos& q) {
 
 bool finite(const vigil_msgs_Point3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
 
-std::optional<vision::EventKind> kind_from(vigil_msgs_EventKind k) {
-  switch (static_cast<int>(k)) {
+// The kind as its raw 32 bits: a malformed sample may hold any value, and loading a value
+// outside the enumeration as the enum type is undefined behaviour (found by UBSan).
+int32_t raw_kind(const vigil_msgs_EventKind& k) {
+  int32_t v = 0;
+  std::memcpy(&v, &k, sizeof v);
+  return v;
+}
+
+std::optional<vision::EventKind> kind_from(int32_t k) {
+  switch (k) {
     case vigil_msgs_LEFT_BAG: return vision::EventKind::kLeftBag;
     case vigil_msgs_BAG_TAKEN: return vision::EventKind::kBagTaken;
     case vigil_msgs_EXCHANGE: return vision::EventKind::kExchange;
@@ -276,8 +285,8 @@ Result<vision::Event> from_message(const vigil_msgs_CameraEvent& m) {
   vision::Event e;
   if (!m.camera || !*m.camera) return bad_input("", 0, "camera", "empty camera id");
   e.camera = m.camera;
-  const auto kind = kind_from(m.kind);
-  if (!kind) return bad_input("", 0, "kind", "unknown event kind " + std::to_string(static_cast<int>(m.kind)));
+  const auto kind = kind_from(raw_kind(m.kind));
+  if (!kind) return bad_input("", 0, "kind", "unknown event kind " + std::to_string(raw_kind(m.kind)));
   e.kind = *kind;
   e.id = m.id;
   if (e.id == 0) return bad_input("", 0, "id", "event ids start at 1");
@@ -336,8 +345,8 @@ Result<Incident> from_message(const vigil_msgs_MapEvent& m) {
   Incident in;
   in.id = m.incident;
   if (in.id == 0) return bad_input("", 0, "incident", "incident ids start at 1");
-  const auto kind = kind_from(m.kind);
-  if (!kind) return bad_input("", 0, "kind", "unknown event kind " + std::to_string(static_cast<int>(m.kind)));
+  const auto kind = kind_from(raw_kind(m.kind));
+  if (!kind) return bad_input("", 0, "kind", "unknown event kind " + std::to_string(raw_kind(m.kind)));
   in.kind = *kind;
   in.cancelled = m.cancelled;
   in.stamp_ns = m.stamp_ns;

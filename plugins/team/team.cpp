@@ -503,16 +503,19 @@ class Team : public Plugin {
       if (k.done || k.cancelled) continue;
       auto kp = tokens_->keepers().find(id);
       if (kp == tokens_->keepers().end() || kp->second == ctx_.model_id) continue;
-      auto mate = mates_.find(kp->second);
+      // A copy: forget() below erases the keeper's entry (reading it afterwards was a
+      // use-after-free, found by AddressSanitizer).
+      const std::string keeper = kp->second;
+      auto mate = mates_.find(keeper);
       if (mate != mates_.end() && now_ - mate->second.heard <= keeper_timeout_) continue;
       TeamMessage m;
       m.kind = "task_reopen";
       m.task = id;
-      m.text = kp->second;
+      m.text = keeper;
       cmd.send(m);
       tokens_->forget(id);
       handled_.erase(id);
-      cmd.report(base_report("task_reopened", k.task.kind + " " + std::to_string(id) + ": " + kp->second + " fell silent"));
+      cmd.report(base_report("task_reopened", k.task.kind + " " + std::to_string(id) + ": " + keeper + " fell silent"));
       tokens_->create(k.task, knowledge_.now);
       k.started = true;
     }
