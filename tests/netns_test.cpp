@@ -1,7 +1,7 @@
 // The system across hosts (issue 14, docs/RELIABILITY.md): camera node, video server and
 // subscribers each in its own network namespace, joined by veth pairs to a bridge in a switch
 // namespace, each with its own address and a Cyclone DDS configuration naming that interface and
-// the other hosts as peers (docs/DDS.md's multi-host setup). Faults injected there: a link that
+// the other hosts as peers (docs/EVENTS.md's multi-host setup). Faults injected there: a link that
 // drops a share of its packets (nftables `numgen random`; this kernel has no netem, so no delay),
 // the server killed and restarted on its host mid-incident.
 //
