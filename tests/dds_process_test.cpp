@@ -22,10 +22,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/process_util.h"
 #include "tests/test_util.h"
 #include "vision/event.h"
 
-extern char** environ;
 
 namespace vigil {
 namespace {
@@ -35,48 +35,10 @@ using test::Output;
 using test::slurp;
 using test::vigil_cmd;
 
-// Starts `vigil ARGS` in the background with stdout and stderr to `log`.
-pid_t spawn_vigil(const std::vector<std::string>& args, const fs::path& log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  std::vector<std::string> all = {test::vigil_binary().string()};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
-}
-
-int wait_exit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::vector<vision::Event> read_events(const fs::path& p) {
-  auto r = vision::read_events_jsonl(p.string());
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().str());
-  return r.ok() ? *r : std::vector<vision::Event>{};
-}
-
-// Waits until `file` holds at least `n` event lines, or `timeout_s` passes.
-bool wait_for_events(const fs::path& file, size_t n, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (fs::exists(file)) {
-      size_t lines = 0;
-      for (char c : slurp(file)) lines += c == '\n';
-      if (lines >= n) return true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return false;
-}
+using test::read_events;
+using test::spawn_vigil;
+using test::wait_exit;
+const auto& wait_for_events = test::wait_for_lines;
 
 fs::path temp_dir(const std::string& name) { return test::fresh_temp_dir("dds", name); }
 

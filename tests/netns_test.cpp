@@ -27,10 +27,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/process_util.h"
 #include "tests/test_util.h"
 #include "vision/event.h"
 
-extern char** environ;
 
 namespace vigil {
 namespace {
@@ -153,47 +153,12 @@ class Hosts {
   std::vector<Host> hosts_;
 };
 
-// Starts `vigil ARGS` on host namespace `ns` with output to `log`.
 pid_t spawn_on(const std::string& ns, const std::vector<std::string>& args, const fs::path& log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  std::vector<std::string> all = {"ip", "netns", "exec", ns, test::vigil_binary().string()};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, "ip", &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  return rc == 0 ? pid : -1;
+  return test::spawn_vigil(args, log, ns);
 }
-
-int wait_exit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-bool wait_for_lines(const fs::path& file, size_t n, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (fs::exists(file)) {
-      size_t lines = 0;
-      for (char c : slurp(file)) lines += c == '\n';
-      if (lines >= n) return true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  return false;
-}
-
-std::vector<vision::Event> read_events(const fs::path& p) {
-  auto r = vision::read_events_jsonl(p.string());
-  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().str());
-  return r.ok() ? *r : std::vector<vision::Event>{};
-}
+using test::read_events;
+using test::wait_exit;
+using test::wait_for_lines;
 
 const std::string kScenario = (test::source_dir() / "scenarios" / "dis_bag_taken.yaml").string();
 
