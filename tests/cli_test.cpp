@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -92,10 +93,13 @@ TEST(Cli, RunWritesOutputsAndIsDeterministic) {
   ASSERT_EQ(first.code, 0) << first.out;
   const Output second = vigil_cmd("run " + sc + " --out " + b.string() + " --duration 8 --no-video --quiet");
   ASSERT_EQ(second.code, 0) << second.out;
-  for (const char* f : {"ground_truth.jsonl", "summary.json", "topdown.avi", "topdown.png", "cameras/cam_corridor.avi",
-                        "cameras/cam_lab.avi"})
+  for (const char* f : {"ground_truth.jsonl", "summary.json", "topdown.mp4", "topdown.png", "cameras/cam_corridor.mp4",
+                        "cameras/cam_lab.mp4"})
     EXPECT_TRUE(fs::exists(a / f)) << f;
-  EXPECT_FALSE(fs::exists(b / "topdown.avi"));
+  EXPECT_FALSE(fs::exists(b / "topdown.mp4"));
+  const Output mkv = vigil_cmd("run " + sc + " --out " + c.string() + " --video-format mkv --quiet");
+  EXPECT_EQ(mkv.code, 2) << mkv.out;
+  EXPECT_NE(mkv.out.find("--video-format"), std::string::npos) << mkv.out;
   EXPECT_FALSE(fs::exists(b / "cameras"));
   const std::string gt_a = slurp(a / "ground_truth.jsonl"), gt_b = slurp(b / "ground_truth.jsonl");
   ASSERT_FALSE(gt_a.empty());
@@ -108,8 +112,25 @@ TEST(Cli, RunWritesOutputsAndIsDeterministic) {
   EXPECT_EQ(sum_a["ground_truth_sha256"], sum_b["ground_truth_sha256"]);
   EXPECT_DOUBLE_EQ(sum_a["sim_seconds"].get<double>(), 8.0);
   // The shipped scenarios have laser noise and odometry error: another seed, other bytes.
-  const Output third = vigil_cmd("run " + sc + " --out " + c.string() + " --duration 8 --seed 99 --no-video --quiet");
+  const Output third = vigil_cmd("run " + sc + " --out " + c.string() + " --duration 8 --seed 99 --no-video --no-scans --quiet");
   ASSERT_EQ(third.code, 0) << third.out;
+  // The robots' laser scans: the same bytes for the same seed, one line per scan at the laser's
+  // rate (10 Hz, 2 robots, 8 s), the scenario's 271 samples; --no-scans writes none.
+  const std::string scans_a = slurp(a / "scans.jsonl");
+  EXPECT_EQ(scans_a, slurp(b / "scans.jsonl"));
+  EXPECT_FALSE(fs::exists(c / "scans.jsonl"));
+  {
+    std::istringstream in(scans_a);
+    std::map<std::string, int> per_robot;
+    for (std::string l; std::getline(in, l);) {
+      const auto j = nlohmann::json::parse(l);
+      ++per_robot[j["robot"].get<std::string>()];
+      EXPECT_EQ(j["ranges"].size(), 271u);
+      EXPECT_EQ(j["laser"].size(), 3u);
+    }
+    ASSERT_EQ(per_robot.size(), 2u);
+    for (const auto& [robot, n] : per_robot) EXPECT_NEAR(n, 80, 1) << robot;
+  }
   const auto sum_c = nlohmann::json::parse(slurp(c / "summary.json"));
   EXPECT_EQ(sum_c["seed"], 99);
   EXPECT_NE(sum_c["ground_truth_sha256"], sum_a["ground_truth_sha256"]);
@@ -205,11 +226,11 @@ TEST(Cli, RunWritesEachTrackerSAnnotatedViewBesideTheCameraVideo) {
                              " --quiet");
   ASSERT_EQ(o.code, 0) << o.out;
   for (const char* cam : {"cam_corridor", "cam_lab"}) {
-    const fs::path v = out / "cameras" / (std::string(cam) + "_mser.avi");
+    const fs::path v = out / "cameras" / (std::string(cam) + "_mser.mp4");
     ASSERT_TRUE(fs::exists(v)) << v;
     // The view and the segmentation side by side: at least twice the camera's width, one frame
     // per camera frame.
-    cv::VideoCapture annotated(v.string()), raw((out / "cameras" / (std::string(cam) + ".avi")).string());
+    cv::VideoCapture annotated(v.string()), raw((out / "cameras" / (std::string(cam) + ".mp4")).string());
     ASSERT_TRUE(annotated.isOpened() && raw.isOpened()) << v;
     EXPECT_GE(annotated.get(cv::CAP_PROP_FRAME_WIDTH), 2 * raw.get(cv::CAP_PROP_FRAME_WIDTH));
     cv::Mat frame;
@@ -220,7 +241,7 @@ TEST(Cli, RunWritesEachTrackerSAnnotatedViewBesideTheCameraVideo) {
   const Output n = vigil_cmd("run " + scenario("dis_left_bag").string() + " --sensor mser --duration 1 --no-video --out " +
                              quiet.string() + " --quiet");
   ASSERT_EQ(n.code, 0) << n.out;
-  EXPECT_FALSE(fs::exists(quiet / "cameras" / "cam_corridor_mser.avi"));
+  EXPECT_FALSE(fs::exists(quiet / "cameras" / "cam_corridor_mser.mp4"));
   EXPECT_TRUE(fs::exists(quiet / "tracks.jsonl"));
 }
 
@@ -248,8 +269,17 @@ TEST(Cli, TrackRunsThePlanViewPipelineOnARenderedSource) {
   ASSERT_EQ(o.code, 0) << o.out;
   EXPECT_NE(o.out.find("20 frames"), std::string::npos) << o.out;
   EXPECT_TRUE(fs::exists(out / "tracks.jsonl"));
-  EXPECT_TRUE(fs::exists(out / "annotated.avi"));
+  EXPECT_TRUE(fs::exists(out / "annotated.mp4"));
   EXPECT_TRUE(fs::exists(out / "annotated_last.png"));
+  // AVI on request; an unknown format is bad input naming the option.
+  const Output avi = vigil_cmd("track --source 'render:" + scenario("dis_left_bag").string() +
+                               ";camera=cam_corridor;frames=3;disparity=sgbm' --video-format avi --out " + out.string() + " --quiet");
+  ASSERT_EQ(avi.code, 0) << avi.out;
+  EXPECT_TRUE(fs::exists(out / "annotated.avi"));
+  const Output webm = vigil_cmd("track --source 'render:" + scenario("dis_left_bag").string() +
+                                ";camera=cam_corridor;frames=3' --video-format webm --out " + out.string() + " --quiet");
+  EXPECT_EQ(webm.code, 2) << webm.out;
+  EXPECT_NE(webm.out.find("--video-format"), std::string::npos) << webm.out;
   // A mono source has no depth: a clear error, exit 2.
   const fs::path g = test::source_dir() / "tests" / "golden" / "dis_left_bag_cam_corridor_t12_left.png";
   const Output mono = vigil_cmd("track --source 'images:" + g.string() + "' --out " + out.string() + " --quiet");

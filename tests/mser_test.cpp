@@ -474,7 +474,7 @@ TEST(MserSystem, VigilTrackWritesMotChallengeBoxesFromAMonoVideo) {
   int lines = 0;
   expect_walker_boxes(dir / "out" / "tracks.txt", true, &lines);
   EXPECT_GE(lines, 10);
-  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "annotated.avi"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "out" / "annotated.mp4"));
   // Shrunk by half before the system sees it: the boxes still come out in the video's pixels.
   const auto half = test::vigil_cmd("track --pipeline mser --scale 0.5 --no-video --source video:" + avi + " --out " +
                                     (dir / "half").string() + " -q");

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "plugins/builtin.h"
@@ -152,8 +153,10 @@ TEST(CameraRig, RendersEveryCameraAtItsRateFeedsConsumersAndWritesVideos) {
   const fs::path out = fs::temp_directory_path() / "vigil_rig_test";
   fs::remove_all(out);
   std::map<std::string, FrameLog> logs;
+  std::map<std::string, cv::Mat> last_left;
   CameraRig rig;
   rig.add_consumer("", [&](const CameraSpec& cam, const vision::StereoFrame& f, const World& w) {
+    last_left[cam.id] = f.left.clone();
     logs[cam.id].stamps.push_back(f.stamp_ns);
     logs[cam.id].world_times.push_back(w.time());
     EXPECT_EQ(f.index, static_cast<int64_t>(logs[cam.id].stamps.size()) - 1);
@@ -171,17 +174,48 @@ TEST(CameraRig, RendersEveryCameraAtItsRateFeedsConsumersAndWritesVideos) {
     EXPECT_EQ(log.stamps.size(), 16u) << id;
     EXPECT_EQ(log.stamps, log.world_times) << id;
     EXPECT_EQ(rig.frames().at(id), 16) << id;
-    cv::VideoCapture cap((out / "cameras" / (id + ".avi")).string());
+    // H.264 in MP4 by default: every frame there, at the camera's size, close to what was rendered.
+    cv::VideoCapture cap((out / "cameras" / (id + ".mp4")).string());
     ASSERT_TRUE(cap.isOpened()) << id;
     EXPECT_EQ(static_cast<int>(cap.get(cv::CAP_PROP_FRAME_COUNT)), 16) << id;
     EXPECT_EQ(static_cast<int>(cap.get(cv::CAP_PROP_FRAME_WIDTH)), 640);
+    EXPECT_EQ(static_cast<int>(cap.get(cv::CAP_PROP_FRAME_HEIGHT)), 480);
+    cv::Mat decoded;
+    int n = 0;
+    while (cap.read(decoded)) ++n;
+    EXPECT_EQ(n, 16) << id;
+    EXPECT_FALSE(fs::exists(out / "cameras" / (id + ".avi"))) << id;
+  }
+  // The last frame the rig rendered against the last one decoded: H.264 at CRF 23 keeps the look.
+  {
+    cv::VideoCapture cap((out / "cameras" / "cam_corridor.mp4").string());
+    cv::Mat f, last;
+    while (cap.read(f)) last = f.clone();
+    ASSERT_FALSE(last.empty());
+    ASSERT_EQ(last.size(), last_left["cam_corridor"].size());
+    EXPECT_GT(cv::PSNR(last, last_left["cam_corridor"]), 30.0);
   }
   // Same scenario, same seed: the same bytes in the camera videos.
-  const std::string first = file_sha(out / "cameras" / "cam_corridor.avi");
+  const std::string first = file_sha(out / "cameras" / "cam_corridor.mp4");
   CameraRig again;
   ro.observers = {&again};
   ASSERT_TRUE(run_scenario(sc, ro).ok());
-  EXPECT_EQ(file_sha(out / "cameras" / "cam_corridor.avi"), first);
+  EXPECT_EQ(file_sha(out / "cameras" / "cam_corridor.mp4"), first);
+  // AVI on request: MJPEG, also byte-identical run to run.
+  fs::remove_all(out);
+  CameraRigOptions avi_options;
+  avi_options.video_format = VideoFormat::kAvi;
+  CameraRig avi(avi_options), avi_again(avi_options);
+  ro.observers = {&avi};
+  ASSERT_TRUE(run_scenario(sc, ro).ok());
+  cv::VideoCapture mjpg((out / "cameras" / "cam_corridor.avi").string());
+  ASSERT_TRUE(mjpg.isOpened());
+  EXPECT_EQ(static_cast<int>(mjpg.get(cv::CAP_PROP_FRAME_COUNT)), 16);
+  EXPECT_EQ(static_cast<int>(mjpg.get(cv::CAP_PROP_FOURCC)), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'));
+  const std::string avi_first = file_sha(out / "cameras" / "cam_corridor.avi");
+  ro.observers = {&avi_again};
+  ASSERT_TRUE(run_scenario(sc, ro).ok());
+  EXPECT_EQ(file_sha(out / "cameras" / "cam_corridor.avi"), avi_first);
   fs::remove_all(out);
 }
 

@@ -13,6 +13,7 @@ PKGS=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
   iproute2 nftables
+  chromium fonts-dejavu-core python3-venv
 )
 
 missing=()

@@ -4,7 +4,7 @@
 # rules, events over DDS to the video server, incidents over DDS to the patrolling robot team,
 # token passing, the chosen robot drives there, guards and (bag taken) takes its picture; then
 # scores tracks, events, navigation, patrol idleness and the response against the ground truth
-# (vigil eval). Extra arguments go to `vigil run`, e.g. tools/run.sh --no-video --seed 7.
+# (vigil eval), and writes report.html (vigil report). Extra arguments go to `vigil run`, e.g. tools/run.sh --no-video --seed 7.
 # VIGIL_SCENARIO picks another scenario; VIGIL_SENSOR=truth uses the fast ground-truth sensor;
 # VIGIL_EVAL_CAMERA the camera whose view the tracking is scored in (default cam_corridor).
 set -euo pipefail
@@ -22,3 +22,6 @@ if grep -Eq "^[[:space:]]*- id: ${camera}[[:space:]]*$" "$scenario"; then
 else
   "$here/build/tools/vigil" eval "$out"
 fi
+# One page with the run: the top-down view over time, the cameras' videos, the tables and plots.
+"$here/build/tools/vigil" report "$out" --scenario "$scenario"
+echo "report: $out/report.html (open it in a browser; it reads the videos beside it)"

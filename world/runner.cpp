@@ -37,9 +37,42 @@ std::string robot_report_json(const RobotReport& r) {
   return j.dump();
 }
 
+namespace {
+
+// After every step, one line per robot whose scan was taken in it: the laser's pose in the map
+// frame then (the true one, where the rays were cast from), the scan's angles and its ranges (mm).
+void write_scans(const World& world, std::vector<SimTime>* written, std::ostream& out) {
+  std::string line;
+  char buf[96];
+  for (size_t i = 0; i < world.robots().size(); ++i) {
+    const auto& r = world.robots()[i];
+    if (!r.spec.ranger.enabled || r.scan.ranges.empty() || r.scan.stamp == (*written)[i]) continue;
+    (*written)[i] = r.scan.stamp;
+    const Pose2 lp = r.laser_pose();
+    line.clear();
+    std::snprintf(buf, sizeof buf, "{\"t_ns\":%lld,\"robot\":\"", static_cast<long long>(r.scan.stamp));
+    line += buf;
+    line += r.spec.id;
+    std::snprintf(buf, sizeof buf, "\",\"laser\":[%.4f,%.4f,%.4f],\"angle_min\":%.6f,\"angle_increment\":%.6f,", lp.x, lp.y,
+                  lp.yaw, r.scan.angle_min, r.scan.angle_increment);
+    line += buf;
+    std::snprintf(buf, sizeof buf, "\"range_min\":%.3f,\"range_max\":%.3f,\"ranges\":[", r.scan.range_min, r.scan.range_max);
+    line += buf;
+    for (size_t k = 0; k < r.scan.ranges.size(); ++k) {
+      std::snprintf(buf, sizeof buf, k ? ",%.3f" : "%.3f", std::isfinite(r.scan.ranges[k]) ? r.scan.ranges[k] : r.scan.range_max);
+      line += buf;
+    }
+    line += "]}\n";
+    out << line;
+  }
+}
+
+}  // namespace
+
 std::string RunSummary::to_json() const {
   nlohmann::ordered_json j;
   j["scenario"] = scenario;
+  if (!scenario_file.empty()) j["scenario_file"] = scenario_file;
   j["sim_seconds"] = sim_seconds;
   j["wall_seconds"] = wall_seconds;
   j["real_time_factor"] = real_time_factor;
@@ -81,13 +114,24 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     robots_log.open(out / "robots.jsonl", std::ios::trunc);
     if (!robots_log) return internal_error("cannot write " + (out / "robots.jsonl").string());
   }
+  // scans.jsonl: every laser scan of every robot, as it is taken.
+  std::ofstream scans_log;
+  std::vector<SimTime> scan_written(world.robots().size(), -1);
+  // Not for more than kMaxScanRobots robots with a laser: 100 of them would write 1.5 MB/s.
+  constexpr int kMaxScanRobots = 20;
+  int rangers = 0;
+  for (const auto& r : world.robots()) rangers += r.spec.ranger.enabled ? 1 : 0;
+  if (!out.empty() && options.scans && rangers > 0 && rangers <= kMaxScanRobots) {
+    scans_log.open(out / "scans.jsonl", std::ios::trunc);
+    if (!scans_log) return internal_error("cannot write " + (out / "scans.jsonl").string());
+  }
   std::unique_ptr<TopdownRenderer> topdown;
-  cv::VideoWriter video;
+  VideoFile video;
   if (options.video && !out.empty()) {
     topdown = std::make_unique<TopdownRenderer>(world);
-    const auto path = (out / "topdown.avi").string();
-    if (!open_view_video(video, path, scenario.record_rate_hz, topdown->size())) {
-      return internal_error("cannot open video writer for " + path);
+    const auto path = out / (std::string("topdown") + video_extension(options.video_format));
+    if (!video.open(path, scenario.record_rate_hz, topdown->size(), options.video_format)) {
+      return internal_error("cannot write " + path.string() + ": " + video.why());
     }
   }
 
@@ -119,6 +163,7 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
     if (world.finished()) break;
     if (options.before_step) options.before_step(world);
     if (Status s = world.advance(); !s) return s.error();
+    if (scans_log) write_scans(world, &scan_written, scans_log);
     if (options.exchange_messages) {
       if (Status s = options.exchange_messages(world); !s) return s.error();
     } else {
@@ -151,6 +196,11 @@ Result<RunSummary> run_scenario(Scenario scenario, const RunOptions& options) {
 
   RunSummary sum;
   sum.scenario = scenario.name;
+  if (!scenario.file.empty()) {
+    std::error_code ec;
+    const auto abs = std::filesystem::absolute(scenario.file, ec);
+    sum.scenario_file = (ec ? scenario.file : abs.lexically_normal()).string();
+  }
   sum.sim_seconds = to_seconds(world.time());
   sum.wall_seconds = wall();
   sum.real_time_factor = sum.wall_seconds > 0 ? sum.sim_seconds / sum.wall_seconds : 0;

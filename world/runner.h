@@ -1,8 +1,10 @@
 // Runs a scenario headless from start to end: steps the world, records ground truth at the
 // scenario's record rate, draws the top-down video, and writes ground_truth.jsonl, robots.jsonl
-// (what the robots' controllers reported), topdown.avi, topdown.png and summary.json into the
+// (what the robots' controllers reported), topdown.mp4 (or .avi), topdown.png and summary.json into the
 // output folder.
 #pragma once
+
+#include "world/video_writer.h"
 
 #include <filesystem>
 #include <functional>
@@ -33,7 +35,9 @@ struct RunOptions {
   std::filesystem::path out_dir;       // empty: write nothing (hash only)
   std::optional<uint64_t> seed;        // overrides the scenario's
   std::optional<double> duration;      // s, overrides the scenario's
-  bool video = true;                   // topdown.avi and topdown.png
+  bool video = true;                   // topdown.mp4 (or .avi) and topdown.png
+  VideoFormat video_format = VideoFormat::kMp4;  // of topdown.* (world/video_writer.h)
+  bool scans = true;                   // scans.jsonl: every laser scan (at most 20 robots with a laser)
   WorldOptions world;
   // Called about every `progress_interval_s` of wall time with (sim s, total sim s, wall s).
   std::function<void(double, double, double)> progress;
@@ -54,6 +58,7 @@ std::string robot_report_json(const RobotReport& r);
 
 struct RunSummary {
   std::string scenario;
+  std::string scenario_file;  // absolute (vigil report draws the run's map from it)
   double sim_seconds = 0, wall_seconds = 0, real_time_factor = 0;
   uint64_t steps = 0;
   uint64_t seed = 0;

@@ -17,7 +17,13 @@ cv::Scalar parse_colour(const std::string& hex) {
 }
 
 TopdownRenderer::TopdownRenderer(const World& world, int max_width, int max_height) {
-  const auto& m = world.map();
+  init(world.map(), max_width, max_height);
+  trails_.resize(world.people().size());
+}
+
+TopdownRenderer::TopdownRenderer(const OccupancyGrid& map, int max_width, int max_height) { init(map, max_width, max_height); }
+
+void TopdownRenderer::init(const OccupancyGrid& m, int max_width, int max_height) {
   scale_ = std::min(max_width / m.size_x(), max_height / m.size_y());
   origin_ = {m.origin().x, m.origin().y};
   height_m_ = m.size_y();
@@ -33,7 +39,6 @@ TopdownRenderer::TopdownRenderer(const World& world, int max_width, int max_heig
     }
   }
   cv::resize(grid, background_, cv::Size(w, h), 0, 0, scale_ < 1.0 / m.resolution() ? cv::INTER_AREA : cv::INTER_NEAREST);
-  trails_.resize(world.people().size());
 }
 
 cv::Point TopdownRenderer::to_px(Vec2 p) const {
@@ -41,30 +46,35 @@ cv::Point TopdownRenderer::to_px(Vec2 p) const {
           static_cast<int>(std::lround((height_m_ - (p.y - origin_.y)) * scale_))};
 }
 
-cv::Mat TopdownRenderer::draw(const World& world) {
+cv::Mat TopdownRenderer::map_view(const std::vector<CameraSpec>& cameras, const OccupancyGrid& map) const {
   cv::Mat img = background_.clone();
   const int lw = std::max(1, static_cast<int>(scale_ / 20));
-
   // Camera fields of view, clipped by walls, as translucent fans.
   cv::Mat overlay = img.clone();
-  for (const auto& cam : world.scenario().cameras) {
+  for (const auto& cam : cameras) {
     double hfov = cam.hfov.value_or(60.0 * M_PI / 180.0);
     if (cam.fx) hfov = 2 * std::atan(cam.width / (2 * *cam.fx));
     const Vec2 c{cam.position.x, cam.position.y};
     std::vector<cv::Point> fan{to_px(c)};
     for (int k = 0; k <= 24; ++k) {
       const double a = cam.yaw - hfov / 2 + hfov * k / 24;
-      const double r = world.map().raycast(c, a, 12.0);
+      const double r = map.raycast(c, a, 12.0);
       fan.push_back(to_px(c + Vec2{std::cos(a), std::sin(a)} * r));
     }
     cv::fillPoly(overlay, std::vector<std::vector<cv::Point>>{fan}, cv::Scalar(255, 200, 120));
   }
   cv::addWeighted(overlay, 0.35, img, 0.65, 0, img);
-  for (const auto& cam : world.scenario().cameras) {
+  for (const auto& cam : cameras) {
     const Vec2 c{cam.position.x, cam.position.y};
     cv::rectangle(img, to_px(c) - cv::Point(3 * lw, 3 * lw), to_px(c) + cv::Point(3 * lw, 3 * lw), cv::Scalar(160, 80, 0), cv::FILLED);
     cv::putText(img, cam.id, to_px(c) + cv::Point(4 * lw, -4 * lw), cv::FONT_HERSHEY_SIMPLEX, 0.35 * lw, cv::Scalar(160, 80, 0), 1, cv::LINE_AA);
   }
+  return img;
+}
+
+cv::Mat TopdownRenderer::draw(const World& world) {
+  const int lw = std::max(1, static_cast<int>(scale_ / 20));
+  cv::Mat img = map_view(world.scenario().cameras, world.map());
 
   // Laser scans: lines for a few robots, end points for many.
   const bool many = world.robots().size() > 20;

@@ -1,19 +1,58 @@
-// Opens the videos people watch (the top-down view, a vision system's annotated view): MPEG-4
-// Part 2 through OpenCV's FFmpeg backend, AVI container, at the FFmpeg backend's default
-// bit rate. Against OpenCV's own MJPEG writer on a 1280x960 annotated frame (measured
-// 2026-12-02, tools/vigil bench is not needed for this): 4.2 ms against 11.5 ms of CPU per frame,
-// files about 12 times smaller, PSNR 37 dB against 40. Falls back to OpenCV's MJPEG writer (no
-// codec library needed) when FFmpeg cannot open the file. The raw camera views stay MJPEG: they
-// may be read back as recorded frames, where every decibel counts.
+// The videos a run writes: the top-down view, each camera's left view and each vision system's
+// annotated view.
+//
+// VideoFormat::kMp4 (the default): H.264 in an MP4 container through OpenCV's FFmpeg backend
+// (libx264 at its default constant quality, CRF 23, yuv420p), which every browser and player
+// opens; frames of odd width or height are padded by one black column or row (H.264's 4:2:0
+// needs even sizes). Deterministic: x264's threads do not change its output.
+//
+// VideoFormat::kAvi: what runs wrote before, for tools that want it: camera views as MJPEG
+// through OpenCV's own writer (no codec library, byte-identical, the best quality when the
+// frames are read back as recorded ones), the top-down and annotated views as MPEG-4 Part 2
+// through FFmpeg (OpenCV's MJPEG writer where FFmpeg is missing).
+//
+// Measured on the default scenario in docs/PERFORMANCE.md ("Videos").
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
+#include <string_view>
 
+#include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
 namespace vigil {
 
-// Opens `video` for frames of `size` at `fps`; false when no writer could.
-bool open_view_video(cv::VideoWriter& video, const std::string& path, double fps, cv::Size size);
+enum class VideoFormat { kMp4, kAvi };
+
+// "mp4" or "avi"; nullopt otherwise.
+std::optional<VideoFormat> parse_video_format(std::string_view s);
+// ".mp4" or ".avi".
+const char* video_extension(VideoFormat f);
+
+// What the video shows: a camera's own view (MJPEG in AVI) or a drawn view (MPEG-4 Part 2 in AVI).
+enum class VideoContent { kCameraView, kDrawnView };
+
+class VideoFile {
+ public:
+  // Opens `path` (its extension is the caller's: see video_extension) for frames of `size` at
+  // `fps`. False, with why() saying what failed, when no writer could.
+  bool open(const std::filesystem::path& path, double fps, cv::Size size, VideoFormat format,
+            VideoContent content = VideoContent::kDrawnView);
+  // Writes one BGR frame of the size given to open() (padded when the video's size is larger).
+  void write(const cv::Mat& frame);
+  bool is_open() const { return writer_.isOpened(); }
+  void release() { writer_.release(); }
+  const std::filesystem::path& path() const { return path_; }
+  const std::string& why() const { return why_; }
+
+ private:
+  cv::VideoWriter writer_;
+  std::filesystem::path path_;
+  cv::Size frame_size_, video_size_;
+  cv::Mat padded_;
+  std::string why_;
+};
 
 }  // namespace vigil

@@ -199,11 +199,10 @@ Status CameraRig::start(const World& world, const std::filesystem::path& out_dir
     if (options_.video && !out_dir.empty()) {
       std::error_code ec;
       std::filesystem::create_directories(out_dir / "cameras", ec);
-      cam->video_path = out_dir / "cameras" / (spec.id + ".avi");
-      if (ec || !cam->video.open(cam->video_path.string(), cv::CAP_OPENCV_MJPEG,
-                                 cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), spec.rate_hz,
-                                 cv::Size(spec.width, spec.height))) {
-        return bad_input(cam->video_path.string(), 0, "", "cannot open the camera video for writing");
+      const auto path = out_dir / "cameras" / (spec.id + video_extension(options_.video_format));
+      if (ec || !cam->video.open(path, spec.rate_hz, cv::Size(spec.width, spec.height), options_.video_format,
+                                 VideoContent::kCameraView)) {
+        return bad_input(path.string(), 0, "", "cannot open the camera video for writing: " + cam->video.why());
       }
     }
     frames_[spec.id] = 0;
@@ -238,7 +237,7 @@ void CameraRig::camera_work(Camera& cam, const World& world) {
     }
     frame.index = cam.index;
     frame.stamp_ns = world.time();
-    if (cam.video.isOpened()) cam.video.write(frame.left);
+    if (cam.video.is_open()) cam.video.write(frame.left);
     for (const auto& [id, worker] : workers_) {
       if (!id.empty() && id != cam.spec.id) continue;
       if (Status s = worker(cam.spec, frame, world); !s) return s;
@@ -281,7 +280,7 @@ Status CameraRig::render_due(const World& world) {
 Status CameraRig::finish(const World& world) {
   for (auto& cam : cameras_) {
     cam->thread.reset();
-    if (cam->video.isOpened()) cam->video.release();
+    if (cam->video.is_open()) cam->video.release();
   }
   return Status::Ok();
 }

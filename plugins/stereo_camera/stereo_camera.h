@@ -7,7 +7,7 @@
 //
 // CameraRig is the RunObserver that gives every camera of a scenario its frames during
 // `vigil run`: it renders each camera at its own rate as the world steps, writes the left view
-// to DIR/cameras/<id>.avi, and hands each frame to the consumers attached to that camera (the
+// to DIR/cameras/<id>.mp4, and hands each frame to the consumers attached to that camera (the
 // vision pipelines).
 //
 // open_any_frame_source() opens every spec the vision library knows (video:, images:, stereo:)
@@ -23,6 +23,8 @@
 #include <vector>
 
 #include <opencv2/videoio.hpp>
+
+#include "world/video_writer.h"
 
 #include "common/status.h"
 #include "plugins/stereo_camera/osmesa_renderer.h"
@@ -84,7 +86,8 @@ Status match_disparity(const vision::StereoMatcher& matcher, const vision::Stere
 using FrameConsumer = std::function<Status(const CameraSpec&, const vision::StereoFrame&, const World&)>;
 
 struct CameraRigOptions {
-  bool video = true;   // write DIR/cameras/<id>.avi (left view, MJPEG at the camera's rate)
+  bool video = true;   // write DIR/cameras/<id>.mp4 (left view at the camera's rate; world/video_writer.h)
+  VideoFormat video_format = VideoFormat::kMp4;  // kAvi: DIR/cameras/<id>.avi, MJPEG
   RendererOptions renderer;  // effects.seed is replaced per camera by camera_noise_seed()
   // Each camera renders and runs its workers (add_worker) on a thread of its own, the cameras due
   // at one step side by side; the consumers then run on the caller's thread in camera order.
@@ -128,8 +131,7 @@ class CameraRig : public RunObserver {
     std::unique_ptr<OsmesaRenderer> renderer;
     std::unique_ptr<vision::FrameSource> recorded;  // frames from here instead of the renderer
     bool ended = false;
-    cv::VideoWriter video;
-    std::filesystem::path video_path;
+    VideoFile video;
     SimTime next_tick = 0;
     int64_t index = 0;
     vision::StereoFrame frame;  // this step's

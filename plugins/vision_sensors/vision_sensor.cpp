@@ -124,13 +124,13 @@ Result<std::unique_ptr<VisionSensorHost>> VisionSensorHost::create(const Scenari
         if (self->videos_ && self->writing_) {
           const cv::Mat img = att->sensor->annotate(frame, att->fresh);
           if (!img.empty()) {
-            if (!att->video.isOpened()) {
+            if (!att->video.is_open()) {
               const std::filesystem::path dir = self->out_dir_ / "cameras";
               std::error_code ec;
               std::filesystem::create_directories(dir, ec);
-              att->video_path = (dir / (att->camera.id + "_" + att->camera.plugin + ".avi")).string();
-              if (!open_view_video(att->video, att->video_path, att->camera.rate_hz, img.size()))
-                return Status(bad_input(att->video_path, 0, "", "cannot open the video for writing"));
+              const auto path = dir / (att->camera.id + "_" + att->camera.plugin + video_extension(self->video_format_));
+              if (!att->video.open(path, att->camera.rate_hz, img.size(), self->video_format_))
+                return Status(bad_input(path.string(), 0, "", "cannot open the video for writing: " + att->video.why()));
             }
             att->video.write(img);
           }
@@ -258,7 +258,7 @@ Error VisionSensorHost::in_context(const Attached& a, const World& world, Error 
 
 Status VisionSensorHost::finish(const World&) {
   for (auto& a : sensors_)
-    if (a->video.isOpened()) a->video.release();
+    if (a->video.is_open()) a->video.release();
   if (!writing_) return Status::Ok();
   writing_ = false;
   const bool events_ok = std::fclose(events_out_) == 0;

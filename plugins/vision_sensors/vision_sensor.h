@@ -22,6 +22,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "world/video_writer.h"
+
 #include "common/status.h"
 #include "plugins/stereo_camera/stereo_camera.h"
 #include "vision/activity_rules.h"
@@ -109,9 +111,12 @@ class VisionSensorHost : public RunObserver {
   const std::vector<vision::Event>& events() const { return events_; }
   // Called with every event as it is raised (after it is written); an error stops the run.
   void set_event_sink(std::function<Status(const vision::Event&)> sink) { sink_ = std::move(sink); }
-  // Also write DIR/cameras/<camera>_<plugin>.avi: each frame sensor's annotated view per tick
-  // (the camera rate). Off by default; `vigil run` turns it on unless --no-video.
-  void set_videos(bool on) { videos_ = on; }
+  // Also write DIR/cameras/<camera>_<plugin>.mp4 (or .avi): each frame sensor's annotated view
+  // per tick (the camera rate). Off by default; `vigil run` turns it on unless --no-video.
+  void set_videos(bool on, VideoFormat format = VideoFormat::kMp4) {
+    videos_ = on;
+    video_format_ = format;
+  }
 
  private:
   VisionSensorHost() = default;
@@ -123,8 +128,7 @@ class VisionSensorHost : public RunObserver {
     std::optional<vision::ActivityRules> rules;  // made at start()
     SimTime next_tick = 0;
     int64_t index = 0;
-    cv::VideoWriter video;  // the annotated view (set_videos)
-    std::string video_path;
+    VideoFile video;  // the annotated view (set_videos)
     std::vector<vision::Track> fresh;  // this frame's tracks, from the worker to the consumer
   };
   // One tick's tracks of a camera: written, kept, and given to the camera's rules.
@@ -144,6 +148,7 @@ class VisionSensorHost : public RunObserver {
   std::string events_path_;
   bool writing_ = false;
   bool videos_ = false;
+  VideoFormat video_format_ = VideoFormat::kMp4;
   std::filesystem::path out_dir_;
 };
 

@@ -171,6 +171,7 @@ void add_bench_command(CLI::App& app) {
   add_bench_allocate_command(bench);
   add_bench_mser_command(bench);
   add_bench_rate_command(bench);
+  add_bench_video_command(bench);
 }
 
 }  // namespace vigil::cli

@@ -416,6 +416,10 @@ void evaluate_run_patrol(const fs::path& gt_path, const fs::path& robots_path, c
   p["unvisited"] = st.unvisited;
   p["longest_open_s"] = st.longest_open;
   p["interferences"] = interf.count();
+  // Every visit as [t s, vertex, robot], for idleness over time (vigil report plots it).
+  nlohmann::ordered_json log = nlohmann::ordered_json::array();
+  for (const auto& vis : det.visits()) log.push_back({std::round(vis.t * 1000.0) / 1000.0, vis.vertex, vis.robot});
+  p["visit_log"] = log;
   (*eval)["patrol"] = p;
   std::printf("patrol (%s, %zu vertices, %zu robots, visits within %.2f m): average idleness %.1f s, worst %.1f s, "
               "std %.1f s over %d intervals; reference %.1f s (walk %.1f m / %zu / %.2f m/s); %d unvisited; %d interferences\n",

@@ -468,7 +468,7 @@ void add_robot_node(CLI::App& app) {
   cmd->add_option("--mates", o->mates, "wait for this many other robot nodes' readers before starting")->capture_default_str();
   cmd->add_option("--wait-for-mates", o->wait_for_mates, "... for at most this many seconds")->capture_default_str();
   cmd->add_option("--linger", o->linger, "seconds to stay up after the run")->capture_default_str();
-  cmd->add_flag("--video", o->video, "also write this node's topdown.avi and topdown.png");
+  cmd->add_flag("--video", o->video, "also write this node's topdown.mp4 and topdown.png");
   add_dds_options(cmd, &o->dds);
   cmd->callback([o] {
     catch_signals();

@@ -1,4 +1,4 @@
-// vigil run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--no-video]
+// vigil run SCENARIO.yaml [--out DIR] [--seed N] [--duration S] [--no-video] [--video-format mp4|avi] [--no-scans]
 // Writes the ground truth, summary, top-down video and (rendered with OSMesa) each camera's video.
 #include <algorithm>
 #include <chrono>
@@ -26,13 +26,14 @@ void add_run_command(CLI::App& app) {
     std::string scenario, out;
     std::optional<uint64_t> seed;
     std::optional<double> duration;
-    bool no_video = false, quiet = false;
+    bool no_video = false, quiet = false, no_scans = false;
     std::vector<std::string> plugin_paths;
     uint32_t dds_domain = 0;
     std::string sensor;
     std::string dds_config;
     std::string team_transport = "dds";
     std::string memory_log;
+    std::string video_format = "mp4";
   };
   auto opts = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a scenario headless and write its outputs");
@@ -40,7 +41,12 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--out", opts->out, "output folder (default runs/<scenario name>)");
   cmd->add_option("--seed", opts->seed, "seed overriding the scenario's");
   cmd->add_option("--duration", opts->duration, "simulated seconds overriding the scenario's");
-  cmd->add_flag("--no-video", opts->no_video, "do not write topdown.avi, topdown.png or the camera videos");
+  cmd->add_flag("--no-video", opts->no_video, "do not write the top-down video, topdown.png or the camera videos");
+  cmd->add_option("--video-format", opts->video_format,
+                  "mp4 (H.264, opens in browsers and players) or avi (camera views MJPEG, drawn views MPEG-4 Part 2)")
+      ->check(CLI::IsMember({"mp4", "avi"}))
+      ->capture_default_str();
+  cmd->add_flag("--no-scans", opts->no_scans, "do not write scans.jsonl (the robots' laser scans)");
   cmd->add_flag("--quiet,-q", opts->quiet, "no progress output");
   cmd->add_option("--plugin-path", opts->plugin_paths, "extra folder to search for plugin libraries");
   cmd->add_option("--sensor", opts->sensor,
@@ -77,10 +83,13 @@ void add_run_command(CLI::App& app) {
     ro.seed = opts->seed;
     ro.duration = opts->duration;
     ro.video = !opts->no_video;
+    ro.scans = !opts->no_scans;
+    ro.video_format = *parse_video_format(opts->video_format);  // checked by CLI11
     ro.world.plugin_dirs = dirs;
-    // Every camera renders at its rate and writes cameras/<id>.avi (unless --no-video).
+    // Every camera renders at its rate and writes cameras/<id>.mp4 (unless --no-video).
     render::CameraRigOptions rig_options;
     rig_options.video = ro.video;
+    rig_options.video_format = ro.video_format;
     render::CameraRig rig(rig_options);
     // The cameras' vision sensors (plugin: under a camera) write tracks.jsonl.
     // (--seed reaches the sensors' own seeds; the host starts before the rig, whose first frames
@@ -88,8 +97,8 @@ void add_run_command(CLI::App& app) {
     if (opts->seed) scenario->seed = *opts->seed;
     auto host = sensors::VisionSensorHost::create(*scenario, &rig);
     if (!host) throw Exit{report(host.error())};
-    (*host)->set_videos(ro.video);
-    (*host)->set_keep_tracks(false);  // written to tracks.jsonl as they come  // cameras/<camera>_<plugin>.avi: what each tracker shows
+    (*host)->set_videos(ro.video, ro.video_format);  // cameras/<camera>_<plugin>.mp4: what each tracker shows
+    (*host)->set_keep_tracks(false);  // written to tracks.jsonl as they come
     // Their activity rules' events go through DDS to the video server (in this process, on the
     // loopback configuration unless --dds-config), which writes events.jsonl.
     std::unique_ptr<dds::DdsEventRelay> relay;

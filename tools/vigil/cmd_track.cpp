@@ -1,11 +1,11 @@
-// vigil track --source SPEC --pipeline planview|mser --out DIR [--frames N] [--no-video]
+// vigil track --source SPEC --pipeline planview|mser --out DIR [--frames N] [--no-video] [--video-format mp4|avi]
 // On a calibrated source (render:, stereo: with a calibration) either system runs through the
-// vision::Tracker interface and writes DIR/tracks.jsonl (map frame) and DIR/annotated.avi (the
+// vision::Tracker interface and writes DIR/tracks.jsonl (map frame) and DIR/annotated.mp4 (the
 // camera view with the tracks, and the system's own pictures: the foreground and plan-view maps,
 // or the MSER segmentation with its lines and foreground).
 // mser on an uncalibrated mono source (video:, images:): the colour MSER system (vision/mser)
 // in the image, DIR/tracks.txt (MOTChallenge: frame, id, left, top, width, height, 1, -1, -1,
-// -1; frames from 1) and DIR/annotated.avi (segmentation, lines, foreground, boxes).
+// -1; frames from 1) and DIR/annotated.mp4 (segmentation, lines, foreground, boxes).
 #include <unistd.h>
 
 #include <algorithm>
@@ -39,7 +39,7 @@ namespace {
 // `scale` < 1: each frame is shrunk by it (area averaging) before the system sees it, and the
 // boxes are scaled back to the source's pixels (the time per frame includes the shrinking).
 void run_mser(const std::string& spec, vision::FrameSource& source, const std::string& out_dir, int64_t max_frames,
-              bool no_video, bool quiet, double scale) {
+              bool no_video, VideoFormat video_format, bool quiet, double scale) {
   const std::filesystem::path out = out_dir;
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
@@ -48,7 +48,7 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
   std::FILE* mot = std::fopen(mot_path.c_str(), "wb");
   if (!mot) throw Exit{report(bad_input(mot_path, 0, "--out", "cannot create the file"))};
   vision::mser::MserSystem system;
-  cv::VideoWriter video;
+  VideoFile video;
   if (!quiet) std::fprintf(stderr, "[track] %s, colour MSER system\n", source.describe().c_str());
   vision::StereoFrame frame;
   cv::Mat shrunk;
@@ -86,11 +86,11 @@ void run_mser(const std::string& spec, vision::FrameSource& source, const std::s
     }
     if (!no_video) {
       last = system.annotate(input);
-      if (!video.isOpened()) {
-        const std::string path = (out / "annotated.avi").string();
-        if (!open_view_video(video, path, 15, last.size())) {
+      if (!video.is_open()) {
+        const auto path = out / (std::string("annotated") + video_extension(video_format));
+        if (!video.open(path, 15, last.size(), video_format)) {
           std::fclose(mot);
-          throw Exit{report(bad_input(path, 0, "--out", "cannot open the video for writing"))};
+          throw Exit{report(bad_input(path.string(), 0, "--out", "cannot open the video for writing: " + video.why()))};
         }
       }
       video.write(last);
@@ -115,6 +115,8 @@ void add_track_command(CLI::App& app) {
     int64_t frames = 0;
     bool no_video = false, quiet = false;
     double max_range = 8.0, cell_size = 0.02, learning_rate = 0.005, scale = 1.0;
+    std::string video_format = "mp4";
+    VideoFormat format = VideoFormat::kMp4;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("track", "Run a vision pipeline on a stereo frame source and write its tracks");
@@ -138,9 +140,13 @@ void add_track_command(CLI::App& app) {
                   "mser on video: or images:: shrink each frame by this factor first (0 < S <= 1; boxes are written in the "
                   "source's pixels; default 1)")
       ->check(CLI::Range(0.05, 1.0));
-  cmd->add_flag("--no-video", o->no_video, "do not write annotated.avi");
+  cmd->add_flag("--no-video", o->no_video, "do not write the annotated video");
+  cmd->add_option("--video-format", o->video_format, "annotated.mp4 (H.264) or annotated.avi (MPEG-4 Part 2)")
+      ->check(CLI::IsMember({"mp4", "avi"}))
+      ->capture_default_str();
   cmd->add_flag("--quiet,-q", o->quiet, "no progress output");
   cmd->callback([o] {
+    o->format = *parse_video_format(o->video_format);  // checked by CLI11
     WorldOptions wo;
     wo.plugins = builtin_plugin_registry();
     wo.plugin_dirs = plugin_search_path();
@@ -150,7 +156,7 @@ void add_track_command(CLI::App& app) {
     // Without a calibrated camera (a plain video or image folder) the MSER system tracks in the
     // image: MOTChallenge boxes.
     if (o->pipeline == "mser" && !model) {
-      run_mser(o->source, **source, o->out, o->frames, o->no_video, o->quiet, o->scale);
+      run_mser(o->source, **source, o->out, o->frames, o->no_video, o->format, o->quiet, o->scale);
       return;
     }
     if (o->scale != 1.0)
@@ -221,7 +227,7 @@ void add_track_command(CLI::App& app) {
     if (ec) throw Exit{report(bad_input(o->out, 0, "--out", "cannot create the folder: " + ec.message()))};
     vision::TrackJsonlWriter writer;
     if (Status s = writer.open(out / "tracks.jsonl"); !s) throw Exit{report(s.error())};
-    cv::VideoWriter video;
+    VideoFile video;
     const bool tty = isatty(STDERR_FILENO);
     if (!o->quiet) std::fprintf(stderr, "[track] %s\n", (*source)->describe().c_str());
 
@@ -250,10 +256,10 @@ void add_track_command(CLI::App& app) {
       n_tracks += static_cast<int64_t>(tracks->size());
       if (!o->no_video) {
         const cv::Mat img = system->annotate(frame, *tracks);
-        if (!video.isOpened()) {
-          const std::string path = (out / "annotated.avi").string();
-          if (!open_view_video(video, path, fps, img.size()))
-            throw Exit{report(bad_input(path, 0, "--out", "cannot open the video for writing"))};
+        if (!video.is_open()) {
+          const auto path = out / (std::string("annotated") + video_extension(o->format));
+          if (!video.open(path, fps, img.size(), o->format))
+            throw Exit{report(bad_input(path.string(), 0, "--out", "cannot open the video for writing: " + video.why()))};
         }
         video.write(img);
         last_annotated = img;

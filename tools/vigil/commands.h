@@ -34,5 +34,8 @@ void add_bench_patrol_command(CLI::App* bench);  // vigil bench patrol
 void add_bench_allocate_command(CLI::App* bench);  // vigil bench allocate
 void add_bench_mser_command(CLI::App* bench);  // vigil bench mser
 void add_bench_rate_command(CLI::App* bench);  // vigil bench camera-rate
+void add_bench_video_command(CLI::App* bench);  // vigil bench video
+void add_report_command(CLI::App& app);    // vigil report RUN_DIR
+void add_export_mcap_command(CLI::App& app);  // vigil export-mcap RUN_DIR
 
 }  // namespace vigil::cli

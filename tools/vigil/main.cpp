@@ -26,6 +26,8 @@ int main(int argc, char** argv) {
   vigil::cli::add_calibrate_command(app);
   vigil::cli::add_gen_command(app);
   vigil::cli::add_node_commands(app);
+  vigil::cli::add_report_command(app);
+  vigil::cli::add_export_mcap_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

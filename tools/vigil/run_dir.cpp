@@ -1,0 +1,52 @@
+#include "tools/vigil/run_dir.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "tools/vigil/commands.h"
+#include "world/floorplan.h"
+#include "world/map.h"
+
+namespace vigil::cli {
+
+nlohmann::json read_json_object(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  if (!in) throw Exit{report(bad_input(p.string(), 0, "", "cannot read the file"))};
+  std::stringstream ss;
+  ss << in.rdbuf();
+  nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
+  if (j.is_discarded() || !j.is_object()) throw Exit{report(bad_input(p.string(), 0, "", "not a JSON object"))};
+  return j;
+}
+
+RunScene load_run_scene(const std::filesystem::path& run, const std::string& scenario_override) {
+  if (!std::filesystem::is_directory(run)) throw Exit{report(bad_input(run.string(), 0, "run", "not a folder"))};
+  const std::filesystem::path summary_path = run / "summary.json";
+  if (!std::filesystem::exists(summary_path))
+    throw Exit{report(bad_input(summary_path.string(), 0, "", "missing: not a folder `vigil run` wrote"))};
+  RunScene scene;
+  scene.summary = read_json_object(summary_path);
+  std::filesystem::path scenario_path = scenario_override;
+  if (scenario_path.empty()) {
+    if (!scene.summary.contains("scenario_file") || !scene.summary["scenario_file"].is_string())
+      throw Exit{report(bad_input(summary_path.string(), 0, "scenario_file",
+                                  "missing (a run written before 2026-12-06): pass --scenario FILE"))};
+    scenario_path = scene.summary["scenario_file"].get<std::string>();
+  }
+  auto scenario = load_scenario(scenario_path);
+  if (!scenario) throw Exit{report(scenario.error())};
+  scene.scenario = std::move(*scenario);
+  // The map as the world loads it: a floor plan rasterised, else a map file.
+  if (scene.scenario.map.filename().string().ends_with(".floorplan.yaml")) {
+    auto fp = load_floorplan(scene.scenario.map);
+    if (!fp) throw Exit{report(fp.error())};
+    scene.grid = fp->rasterize();
+  } else {
+    auto grid = load_map(scene.scenario.map);
+    if (!grid) throw Exit{report(grid.error())};
+    scene.grid = std::move(*grid);
+  }
+  return scene;
+}
+
+}  // namespace vigil::cli
