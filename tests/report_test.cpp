@@ -179,7 +179,8 @@ TEST(Report, ListsTheRunSVideosAndRefusesBadRunFolders) {
   ASSERT_EQ(o.code, 0) << o.out;
   o = vigil_cmd("report " + run.string() + " --out " + (dir / "page.html").string());
   ASSERT_EQ(o.code, 0) << o.out;
-  // Written elsewhere, the page would not find the videos beside it; in the run folder it does.
+  // Written elsewhere, the page finds the videos relative to itself.
+  EXPECT_NE(slurp(dir / "page.html").find("\"file\":\"run/cameras/cam_corridor.mp4\""), std::string::npos);
   o = vigil_cmd("report " + run.string());
   ASSERT_EQ(o.code, 0) << o.out;
   const std::string dom = chromium(run / "report.html", "", "--dump-dom", dir / "profile");

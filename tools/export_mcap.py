@@ -72,15 +72,18 @@ def colour(hexstr, a=1.0):
         return m.Color(r=0.5, g=0.5, b=0.5, a=a)
 
 
-def quat_yaw(yaw, pitch=0.0):
-    # z-y' rotation (yaw about z, then pitch about the new y; pitch down positive about y).
+def quat_yaw(yaw, pitch=0.0, roll=0.0):
+    # z-y'-x'' rotation: yaw about z, then pitch about the new y (down positive), then roll about
+    # the view axis x.
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    return m.Quaternion(x=-sy * sp, y=cy * sp, z=sy * cp, w=cy * cp)
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    return m.Quaternion(x=cy * cp * sr - sy * sp * cr, y=cy * sp * cr + sy * cp * sr,
+                        z=sy * cp * cr - cy * sp * sr, w=cy * cp * cr + sy * sp * sr)
 
 
-def pose(x, y, z=0.0, yaw=0.0, pitch=0.0):
-    return m.Pose(position=m.Vector3(x=x, y=y, z=z), orientation=quat_yaw(yaw, pitch))
+def pose(x, y, z=0.0, yaw=0.0, pitch=0.0, roll=0.0):
+    return m.Pose(position=m.Vector3(x=x, y=y, z=z), orientation=quat_yaw(yaw, pitch, roll))
 
 
 def text(label, x, y, z, c=None):
@@ -128,7 +131,7 @@ def main():
     for c in scene["cameras"]:
         transforms.append(m.FrameTransform(timestamp=ts(0), parent_frame_id="map", child_frame_id=c["id"],
                                            translation=m.Vector3(x=c["x"], y=c["y"], z=c["z"]),
-                                           rotation=quat_yaw(c["yaw"], c["pitch"])))
+                                           rotation=quat_yaw(c["yaw"], c["pitch"], c.get("roll", 0.0))))
         reach = 8.0
         pts = [m.Point3(x=c["x"], y=c["y"], z=0.01)]
         for k in range(13):
@@ -245,6 +248,12 @@ def main():
     for n, j in read_lines(events_path):
         t = need(j, "t_ns", events_path, n)
         pos = j.get("map") or [0.0, 0.0, 0.0]
+        if j.get("cancelled"):  # the server withdrew the incident: its marker goes
+            add(t, "/events", m.SceneUpdate(deletions=[m.SceneEntityDeletion(
+                timestamp=ts(t), type=m.SceneEntityDeletionType.MatchingId, id="event_%s" % j.get("id", n))]))
+            add(t, "/events/log", m.Log(timestamp=ts(t), level=m.LogLevel.Info, name=j.get("camera", "server"),
+                                        message="withdrawn %s %d" % (j.get("kind", ""), j.get("id", 0))))
+            continue
         add(t, "/events", m.SceneUpdate(entities=[m.SceneEntity(
             timestamp=ts(t), frame_id="map", id="event_%s" % j.get("id", n), frame_locked=False,
             cubes=[m.CubePrimitive(pose=pose(pos[0], pos[1], 1.2, math.pi / 4), size=m.Vector3(x=0.5, y=0.5, z=0.5),
@@ -252,7 +261,7 @@ def main():
             texts=[text("%s (%s)" % (j.get("kind", ""), j.get("camera", "")), pos[0], pos[1], 1.8, m.Color(r=0, g=0.2, b=0.8, a=1))])]))
         add(t, "/events/log", m.Log(timestamp=ts(t), level=m.LogLevel.Warning, name=j.get("camera", "server"),
                                     message="reported %s %d at (%.2f, %.2f)%s" % (j.get("kind", ""), j.get("id", 0), pos[0], pos[1],
-                                                                                  " cancelled" if j.get("cancelled") else "")))
+                                                                                  "")))
 
     # Camera images, from the run's videos, at --image-rate.
     images = 0

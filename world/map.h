@@ -33,6 +33,13 @@ Result<OccupancyGrid> load_map(const std::filesystem::path& path);
 // The PGM is named after the YAML (`map.yaml` -> `map.pgm`) and written beside it.
 Status save_map_yaml(const OccupancyGrid& grid, const std::filesystem::path& yaml_path);
 
+// What the simulator makes of a loaded map before it builds walls: specks of at most 12
+// 4-connected unknown cells away from the grid's edge become free (SLAM maps sprinkle them inside
+// rooms), then every unknown cell next to a free one becomes occupied (SLAM maps leave gaps where
+// the robot saw no wall, so nothing walks, drives or sees off the known map). World::create and
+// the tools that draw a finished run (vigil report, vigil export-mcap) call it.
+void prepare_simulation_map(OccupancyGrid* map);
+
 // An axis-aligned wall rectangle in the map frame.
 struct WallBox {
   Vec2 min, max;

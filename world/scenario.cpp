@@ -520,7 +520,8 @@ class ScenarioReader {
       case ActionKind::kPutDown: options.insert(options.end(), {"duration", "to"}); break;
       case ActionKind::kWait: break;
     }
-    for (const auto& [name, value] : m.entries()) {
+    for (const auto& [entry_name, value] : m.entries()) {
+      const std::string& name = entry_name;  // a plain reference: lambdas cannot capture a binding in C++17 (clang 14)
       const bool is_verb = std::any_of(kKinds.begin(), kKinds.end(), [&](const auto& k) { return k.first == name; });
       if (is_verb || std::find(options.begin(), options.end(), name) != options.end()) continue;
       std::string allowed;

@@ -105,57 +105,7 @@ Status World::build(const WorldOptions& options) {
     if (!grid) return grid.error();
     map_ = std::move(*grid);
   }
-  // SLAM maps sprinkle specks of unknown (a few cells the robot never saw) inside rooms and
-  // corridors: specks of at most kSpeckCells 4-connected unknown cells, away from the grid's
-  // edge, are free floor, not pillars.
-  {
-    constexpr size_t kSpeckCells = 12;
-    const int w = map_.width(), h = map_.height();
-    std::vector<uint8_t> seen(static_cast<size_t>(w) * h, 0);
-    std::vector<std::pair<int, int>> comp, stack;
-    for (int cy = 0; cy < h; ++cy) {
-      for (int cx = 0; cx < w; ++cx) {
-        if (map_.at(cx, cy) != Cell::kUnknown || seen[static_cast<size_t>(cy) * w + cx]) continue;
-        comp.clear();
-        stack.assign(1, {cx, cy});
-        seen[static_cast<size_t>(cy) * w + cx] = 1;
-        bool edge = false;
-        while (!stack.empty()) {
-          const auto [x, y] = stack.back();
-          stack.pop_back();
-          if (comp.size() <= kSpeckCells) comp.emplace_back(x, y);
-          edge = edge || x == 0 || y == 0 || x == w - 1 || y == h - 1;
-          static const int kD[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-          for (const auto& d : kD) {
-            const int nx = x + d[0], ny = y + d[1];
-            if (!map_.in_bounds(nx, ny) || map_.at(nx, ny) != Cell::kUnknown) continue;
-            uint8_t& s = seen[static_cast<size_t>(ny) * w + nx];
-            if (s) continue;
-            s = 1;
-            stack.emplace_back(nx, ny);
-          }
-        }
-        if (!edge && comp.size() <= kSpeckCells)
-          for (const auto& [x, y] : comp) map_.set(x, y, Cell::kFree);
-      }
-    }
-  }
-  // Seal free space: an unknown cell next to a free one is a wall (SLAM maps leave gaps where
-  // the robot saw no wall), so nothing walks or drives off the known map and lasers stop there.
-  {
-    std::vector<std::pair<int, int>> seal;
-    for (int cy = 0; cy < map_.height(); ++cy) {
-      for (int cx = 0; cx < map_.width(); ++cx) {
-        if (map_.at(cx, cy) != Cell::kUnknown) continue;
-        bool touches_free = false;
-        for (int dy = -1; dy <= 1 && !touches_free; ++dy)
-          for (int dx = -1; dx <= 1 && !touches_free; ++dx)
-            touches_free = map_.in_bounds(cx + dx, cy + dy) && map_.at(cx + dx, cy + dy) == Cell::kFree;
-        if (touches_free) seal.emplace_back(cx, cy);
-      }
-    }
-    for (const auto& [cx, cy] : seal) map_.set(cx, cy, Cell::kOccupied);
-  }
+  prepare_simulation_map(&map_);
   walls_ = extract_wall_boxes(map_);
   double max_person_radius = 0.25;
   for (const auto& p : scenario_.people) max_person_radius = std::max(max_person_radius, p.radius);

@@ -70,12 +70,15 @@
     ctx.fillText(text, x, y);
   }
 
-  function drawAt(t) {
+  // Draws the run's state at the last ground-truth state at or before `at`: everything in the
+  // view (bodies, beliefs, goals, tracks, events) is of that one time.
+  function drawAt(at) {
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.drawImage(mapImg, 0, 0);
-    const ti = lastAtOrBefore(tickTimes, t);
+    const ti = lastAtOrBefore(tickTimes, at);
     const ents = ti >= 0 ? D.ticks[ti][1] : [];
     const shown = ti >= 0 ? D.ticks[ti][0] : 0;
+    const t = shown;
     // Robots' trails, coloured by the mode their controller reported.
     ctx.lineWidth = Math.max(2, lw);
     for (const id in trails) {
@@ -120,7 +123,7 @@
       label(e.kind, x + 0.75 * M.scale, y - 0.5 * M.scale, '#dc0000');
     }
     for (const e of D.events) {
-      if (e.t > t + 1e-6 || e.x === undefined) continue;
+      if (e.t > t + 1e-6 || e.x === undefined || e.cancelled) continue;
       const [x, y] = px(e.x, e.y);
       const r = 0.55 * M.scale;
       ctx.strokeStyle = '#0050dc';
@@ -236,6 +239,7 @@
       tctx.fillText(name, tl.width - 60, y + 4);
       tctx.fillStyle = colour;
       for (const e of list) {
+        if (e.cancelled) continue;
         tctx.beginPath(); tctx.moveTo(tx(e.t), y - 6); tctx.lineTo(tx(e.t) + 5, y + 4); tctx.lineTo(tx(e.t) - 5, y + 4); tctx.fill();
       }
     }
@@ -327,14 +331,17 @@
   const match = (E && E.events && E.events.match) || { early_s: 1, max_latency_s: 10, max_distance_m: 1.5 };
   const used = new Set();
   const eventRows = [];
-  for (const te of D.truth_events) {
-    let best = -1;
+  // As vigil eval matches: truth events in order of confirmation, each to the unused report of
+  // its kind nearest in time within the window and distance.
+  const truthOrder = D.truth_events.slice().sort((a, b) => (a.confirmed === undefined ? a.t : a.confirmed) - (b.confirmed === undefined ? b.t : b.confirmed));
+  for (const te of truthOrder) {
+    let best = -1, bestDt = Infinity;
+    const from = te.confirmed === undefined ? te.t : te.confirmed;
     D.events.forEach((re, i) => {
-      if (best >= 0 || used.has(i) || re.kind !== te.kind || re.cancelled) return;
-      const from = te.confirmed === undefined ? te.t : te.confirmed;
+      if (used.has(i) || re.kind !== te.kind || re.cancelled) return;
       if (re.t < from - match.early_s || re.t > from + match.max_latency_s) return;
       if (re.x !== undefined && Math.hypot(re.x - te.x, re.y - te.y) > match.max_distance_m) return;
-      best = i;
+      if (Math.abs(re.t - from) < bestDt) { bestDt = Math.abs(re.t - from); best = i; }
     });
     const confirmed = te.confirmed === undefined ? te.t : te.confirmed;
     const row = [esc(te.kind), fmt(te.t) + (confirmed !== te.t ? ' (' + fmt(confirmed) + ')' : ''), best >= 0 ? fmt(D.events[best].t) : '<span class="bad">missed</span>',
@@ -427,7 +434,8 @@
   // ---- Start: #t=SECONDS opens paused at that time ----
   function start() {
     const m = /[#&]t=([0-9.]+)/.exec(window.location.hash);
-    seek(m ? Number(m[1]) : 0);
+    const at = m ? Number(m[1]) : 0;
+    seek(Number.isFinite(at) ? at : 0);
     document.documentElement.setAttribute('data-ready', '1');
   }
   window.addEventListener('hashchange', () => { setPlaying(false); start(); });

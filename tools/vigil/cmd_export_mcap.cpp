@@ -79,7 +79,7 @@ void add_export_mcap_command(CLI::App& app) {
       double hfov = c.hfov.value_or(60.0 * M_PI / 180.0);
       if (c.fx) hfov = 2 * std::atan(c.width / (2 * *c.fx));
       cams.push_back({{"id", c.id}, {"x", c.position.x}, {"y", c.position.y}, {"z", c.position.z}, {"yaw", c.yaw},
-                      {"pitch", c.pitch}, {"hfov", hfov}, {"width", c.width}, {"height", c.height}, {"rate_hz", c.rate_hz},
+                      {"pitch", c.pitch}, {"roll", c.roll}, {"hfov", hfov}, {"width", c.width}, {"height", c.height}, {"rate_hz", c.rate_hz},
                       {"plugin", c.plugin}});
     }
     j["cameras"] = cams;

@@ -109,10 +109,40 @@ std::string script_safe(const std::string& s) {
   return out;
 }
 
-void replace_once(std::string* text, const std::string& key, const std::string& value) {
-  const size_t at = text->find(key);
-  if (at == std::string::npos) throw Exit{report(internal_error("report template has no " + key))};
-  text->replace(at, key.size(), value);
+// HTML text (for the title).
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// The template with each placeholder (found once in the template itself, not in what replaces
+// another) replaced by its value.
+std::string fill_template(const std::string& tmpl, const std::vector<std::pair<std::string, std::string>>& values) {
+  std::vector<std::pair<size_t, size_t>> at;  // position in tmpl, index in values
+  for (size_t i = 0; i < values.size(); ++i) {
+    const size_t p = tmpl.find(values[i].first);
+    if (p == std::string::npos) throw Exit{report(internal_error("report template has no " + values[i].first))};
+    at.push_back({p, i});
+  }
+  std::sort(at.begin(), at.end());
+  std::string out;
+  size_t from = 0;
+  for (const auto& [p, i] : at) {
+    out.append(tmpl, from, p - from);
+    out += values[i].second;
+    from = p + values[i].first.size();
+  }
+  out.append(tmpl, from, std::string::npos);
+  return out;
 }
 
 }  // namespace
@@ -132,6 +162,15 @@ void add_report_command(CLI::App& app) {
   cmd->callback([o] {
     const fs::path run = o->run;
     RunScene scene = load_run_scene(run, o->scenario);
+    const fs::path out = o->out.empty() ? run / "report.html" : fs::path(o->out);
+    // The videos and pictures as the page finds them: relative to the page's folder.
+    std::error_code rel_ec;
+    const fs::path page_dir = fs::absolute(out, rel_ec).parent_path();
+    auto from_page = [&](const fs::path& in_run) {
+      std::error_code ec;
+      const fs::path rel = fs::relative(fs::absolute(run / in_run, ec), page_dir, ec);
+      return (ec || rel.empty() ? in_run : rel).generic_string();
+    };
     const json& summary = scene.summary;
     const Scenario* scenario = &scene.scenario;
     const OccupancyGrid* grid = &scene.grid;
@@ -171,7 +210,7 @@ void add_report_command(CLI::App& app) {
         if (suffix == "_") continue;
         for (const char* ext : {".mp4", ".avi"}) {
           const fs::path v = fs::path("cameras") / (c.id + suffix + ext);
-          if (fs::exists(run / v)) videos.push_back({{"file", v.generic_string()}, {"what", suffix.empty() ? "camera" : c.plugin}});
+          if (fs::exists(run / v)) videos.push_back({{"file", from_page(v)}, {"what", suffix.empty() ? "camera" : c.plugin}});
         }
       }
       cam["videos"] = videos;
@@ -292,7 +331,7 @@ void add_report_command(CLI::App& app) {
       std::sort(sidecars.begin(), sidecars.end());
       for (const auto& p : sidecars) {
         ojson pic = read_json_object(p);
-        pic["image"] = (fs::path("pictures") / p.filename().replace_extension(".png")).generic_string();
+        pic["image"] = from_page(fs::path("pictures") / p.filename().replace_extension(".png"));
         pictures.push_back(pic);
       }
     }
@@ -300,18 +339,15 @@ void add_report_command(CLI::App& app) {
     // The top-down video, when there is one.
     for (const char* f : {"topdown.mp4", "topdown.avi"})
       if (fs::exists(run / f)) {
-        data["topdown_video"] = f;
+        data["topdown_video"] = from_page(f);
         break;
       }
 
-    std::string html = kReportHtml;
-    replace_once(&html, "/*VIGIL_CSS*/", kReportCss);
-    replace_once(&html, "/*VIGIL_DATA*/", script_safe(data.dump()));
-    replace_once(&html, "VIGIL_MAP_PNG", "data:image/png;base64," + base64(png));
-    replace_once(&html, "/*VIGIL_JS*/", script_safe(kReportJs));
-    replace_once(&html, "VIGIL_TITLE", summary.value("scenario", std::string("run")));
-
-    const fs::path out = o->out.empty() ? run / "report.html" : fs::path(o->out);
+    const std::string html = fill_template(kReportHtml, {{"/*VIGIL_CSS*/", kReportCss},
+                                                         {"/*VIGIL_DATA*/", script_safe(data.dump())},
+                                                         {"VIGIL_MAP_PNG", "data:image/png;base64," + base64(png)},
+                                                         {"/*VIGIL_JS*/", script_safe(kReportJs)},
+                                                         {"VIGIL_TITLE", html_escape(summary.value("scenario", std::string("run")))}});
     std::ofstream f(out, std::ios::binary | std::ios::trunc);
     f << html;
     f.close();

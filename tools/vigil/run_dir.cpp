@@ -46,6 +46,7 @@ RunScene load_run_scene(const std::filesystem::path& run, const std::string& sce
     if (!grid) throw Exit{report(grid.error())};
     scene.grid = std::move(*grid);
   }
+  prepare_simulation_map(&scene.grid);  // as the world does: the map the run simulated
   return scene;
 }
 
