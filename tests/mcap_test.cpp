@@ -92,6 +92,8 @@ TEST(Mcap, ExportsTheRunWithFoxgloveSchemasInTimeOrderAndItReadsBack) {
   for (const auto& [robot, n] : reports) {
     EXPECT_EQ(schema("/robots/" + robot + "/pose"), "foxglove.PoseInFrame");
     EXPECT_EQ(count("/robots/" + robot + "/pose"), n) << robot;
+    EXPECT_EQ(schema("/robots/" + robot + "/path"), "foxglove.SceneUpdate");
+    EXPECT_EQ(count("/robots/" + robot + "/path"), n) << robot;
   }
   for (const auto& [robot, n] : scans) {
     EXPECT_EQ(schema("/robots/" + robot + "/scan"), "foxglove.LaserScan");

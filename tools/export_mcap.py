@@ -12,6 +12,7 @@ shows (nanoseconds from the run's start); messages are written in that order. To
   /truth/entities           foxglove.SceneUpdate    robots, people, objects at each ground-truth tick
   /truth/events             foxglove.SceneUpdate    the ground truth's events where they happened
   /robots/<id>/pose         foxglove.PoseInFrame    the pose the robot believes (robots.jsonl)
+  /robots/<id>/path         foxglove.SceneUpdate    what is left of its planned path (robots.jsonl)
   /robots/<id>/scan         foxglove.LaserScan      its laser scans (scans.jsonl), pose = the laser's
   /robots/log               foxglove.Log            the robots' goal and task events
   /cameras/<id>/image       foxglove.CompressedImage the camera's left view (JPEG, frame <id>)
@@ -206,6 +207,16 @@ def main():
         rid = need(j, "robot", robots_path, n)
         add(t, "/robots/%s/pose" % rid, m.PoseInFrame(timestamp=ts(t), frame_id="map",
                                                      pose=pose(need(j, "x", robots_path, n), need(j, "y", robots_path, n), 0.0, j.get("yaw", 0.0))))
+        plan = j.get("path") or []
+        if len(plan) >= 2:
+            add(t, "/robots/%s/path" % rid, m.SceneUpdate(entities=[m.SceneEntity(
+                timestamp=ts(t), frame_id="map", id=rid + "_path", frame_locked=False,
+                lines=[m.LinePrimitive(type=m.LinePrimitiveLineType.LineStrip, pose=pose(0, 0), thickness=3.0,
+                                       scale_invariant=True, points=[m.Point3(x=p[0], y=p[1], z=0.02) for p in plan],
+                                       color=m.Color(r=0.0, g=0.63, b=0.78, a=1.0))])]))
+        else:
+            add(t, "/robots/%s/path" % rid, m.SceneUpdate(deletions=[m.SceneEntityDeletion(
+                timestamp=ts(t), type=m.SceneEntityDeletionType.MatchingId, id=rid + "_path")]))
         if j.get("event"):
             add(t, "/robots/log", m.Log(timestamp=ts(t), level=m.LogLevel.Warning if j["event"] in ("goal_failed", "task_rejected") else m.LogLevel.Info,
                                         name=rid, message="%s %s%s (mode %s, goal %.2f %.2f)" % (

@@ -328,6 +328,10 @@ Status save_stereo_calibration(const std::string& path, const StereoCalibration&
   return Status::Ok();
 }
 
+namespace {
+Result<StereoCalibration> read_calibration(const std::string& path, const cv::FileStorage& fs);
+}  // namespace
+
 Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
@@ -339,6 +343,18 @@ Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
   } catch (const cv::Exception& e) {
     return parse_error(path, e);
   }
+  try {
+    // A key looked up in anything but a map throws (a file whose top level is a list).
+    if (!fs.root().isMap()) return bad_input(path, 0, "", "the top level must be a map of keys (image_width, K1, ...)");
+    return read_calibration(path, fs);
+  } catch (const cv::Exception& e) {
+    return parse_error(path, e);
+  }
+}
+
+namespace {
+
+Result<StereoCalibration> read_calibration(const std::string& path, const cv::FileStorage& fs) {
   const CalibrationReader reader(path, fs);
   StereoCalibration c;
 
@@ -413,6 +429,8 @@ Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
   }
   return c;
 }
+
+}  // namespace
 
 StereoCalibration ideal_calibration(const StereoCameraModel& model) {
   const Intrinsics& k = model.intrinsics();

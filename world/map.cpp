@@ -460,7 +460,10 @@ Result<std::vector<WorldToken>> tokenize_world(const std::string& file, const st
   size_t i = 0;
   while (i < text.size()) {
     const char c = text[i];
-    if (c == '\n') {
+    if (c == '\0') {
+      // (strchr below would match the terminator and never move on)
+      return bad_input(file, line, "", "a NUL byte: not a text worldfile");
+    } else if (c == '\n') {
       ++line;
       ++i;
     } else if (std::isspace(static_cast<unsigned char>(c))) {

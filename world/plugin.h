@@ -63,7 +63,7 @@ struct RobotReport {
   double path_length = 0;        // planned length from where the goal was given (m)
   double cruise_speed = 0;       // the speed it drives at (m/s), for time-to-goal figures
   // What is left of the planned path, from the robot on (at most 64 points), for views such as
-  // the top-down video; not written to robots.jsonl.
+  // the top-down video and the report (robots.jsonl's "path", to the centimetre).
   std::vector<Vec2> path;
 };
 

@@ -34,6 +34,13 @@ std::string robot_report_json(const RobotReport& r) {
   j["goal_y"] = r4(r.goal.y);
   j["path_length"] = r4(r.path_length);
   j["cruise_speed"] = r4(r.cruise_speed);
+  // What is left of the planned path, to the centimetre.
+  if (!r.path.empty()) {
+    auto r2 = [](double v) { return std::isfinite(v) ? std::round(v * 1e2) / 1e2 + 0.0 : 0.0; };
+    nlohmann::ordered_json path = nlohmann::ordered_json::array();
+    for (const Vec2& p : r.path) path.push_back({r2(p.x), r2(p.y)});
+    j["path"] = path;
+  }
   return j.dump();
 }
 

@@ -60,7 +60,7 @@
   const lw = Math.max(1, M.scale / 20);
   $('legend').innerHTML = [['#28a028', 'robot (true pose)'], ['transparent;border:2px solid #0050dc', 'believed pose'],
     ['#3caa3c', 'trail: driving'], ['#ff8c00', 'avoiding'], ['#dc0000', 'waiting / recovering'], ['#a03cb4', 'localising'],
-    ['#c800c8', 'goal'], ['#8a2be2', 'person track'], ['#e07000', 'bag track'], ['transparent;border:2px solid #dc0000', 'event (truth)'],
+    ['#c800c8', 'goal'], ['#00a0c8', 'planned path'], ['#8a2be2', 'person track'], ['#e07000', 'bag track'], ['transparent;border:2px solid #dc0000', 'event (truth)'],
     ['transparent;border:2px solid #0050dc', 'event (reported)']]
     .map((l) => '<span><i style="background:' + l[0] + '"></i>' + esc(l[1]) + '</span>').join('');
 
@@ -178,6 +178,15 @@
           ctx.strokeStyle = '#c800c8';
           ctx.lineWidth = Math.max(2, lw + 1);
           ctx.beginPath(); ctx.moveTo(gx - s, gy - s); ctx.lineTo(gx + s, gy + s); ctx.moveTo(gx - s, gy + s); ctx.lineTo(gx + s, gy - s); ctx.stroke();
+        }
+        // What is left of the planned path (teal).
+        const plan = rep[11] || [];
+        if (plan.length >= 2) {
+          ctx.strokeStyle = '#00a0c8';
+          ctx.lineWidth = Math.max(1, lw);
+          ctx.beginPath();
+          plan.forEach((p, k) => { const [qx, qy] = px(p[0], p[1]); if (k) ctx.lineTo(qx, qy); else ctx.moveTo(qx, qy); });
+          ctx.stroke();
         }
         const [bx, by] = px(rep[2], rep[3]);
         ctx.strokeStyle = '#0050dc';

@@ -273,14 +273,15 @@ void add_report_command(CLI::App& app) {
     data["truth_events"] = truth_events;
     data["contacts"] = contacts;
 
-    // What the robots' controllers reported: [t, robot, x, y, yaw, mode, role, goal_x, goal_y, event, localized].
+    // What the robots' controllers reported: [t, robot, x, y, yaw, mode, role, goal_x, goal_y, event, localized, path].
     ojson robots = ojson::array();
     const fs::path robots_path = run / "robots.jsonl";
     for_each_line(robots_path, [&](int line, const json& j) {
       robots.push_back({r3(number(j, "t_ns", robots_path, line) * 1e-9), j.value("robot", ""), r3(j.value("x", 0.0)),
                         r3(j.value("y", 0.0)), r3(j.value("yaw", 0.0)), j.value("mode", ""), j.value("role", ""),
                         r3(j.value("goal_x", 0.0)), r3(j.value("goal_y", 0.0)), j.value("event", ""),
-                        j.value("localized", false)});
+                        j.value("localized", false),
+                        j.contains("path") && j["path"].is_array() ? ojson(j["path"]) : ojson::array()});
     });
     data["robots"] = robots;
 
