@@ -64,6 +64,9 @@ Error parse_error(const std::string& path, const cv::Exception& e) {
 
 // Reads one calibration file's nodes and turns every problem into an error naming file, line and
 // key.
+// The largest image side a rig file may give (rectification maps are made at the image's size).
+constexpr double kMaxImageSide = 16384;
+
 class CalibrationReader {
  public:
   CalibrationReader(std::string path, const cv::FileStorage& fs) : path_(std::move(path)), fs_(fs) {
@@ -75,14 +78,15 @@ class CalibrationReader {
     return bad_input(path_, key_line(lines_, key), key, message);
   }
 
-  // A positive integer.
-  Result<int> positive_int(const std::string& key) const {
+  // A positive integer up to `max`.
+  Result<int> positive_int(const std::string& key, double max) const {
     const cv::FileNode n = fs_[key];
     if (n.empty() || n.isNone()) return error(key, "missing key");
     if (!n.isInt() && !n.isReal()) return error(key, "must be a positive integer");
     const double v = n.real();
-    if (!(v > 0) || v != std::floor(v) || v > 1e6)
-      return error(key, "must be a positive integer, got " + std::to_string(v));
+    if (!(v > 0) || v != std::floor(v) || v > max)
+      return error(key, "must be a whole number from 1 to " + std::to_string(static_cast<long long>(max)) + ", got " +
+                            std::to_string(v));
     return static_cast<int>(v);
   }
 
@@ -112,6 +116,14 @@ class CalibrationReader {
           m = m.reshape(1, rows);
         }
       } else if (n.isMap()) {
+        // OpenCV allocates rows x cols before it reads the data: check the header first (a
+        // corrupt rows value asked it for tens of gigabytes). Rig matrices are at most 4 x 4.
+        const cv::FileNode r = n["rows"], c = n["cols"], d = n["data"];
+        if (!r.isInt() || !c.isInt() || static_cast<int>(r) < 1 || static_cast<int>(c) < 1 || static_cast<int>(r) > 16 ||
+            static_cast<int>(c) > 16)
+          return error(key, "an opencv-matrix needs whole rows and cols between 1 and 16");
+        if (!d.isSeq() || static_cast<int>(d.size()) != static_cast<int>(r) * static_cast<int>(c))
+          return error(key, "an opencv-matrix's data must hold rows x cols numbers");
         n >> m;
       }
     } catch (const cv::Exception& e) {
@@ -342,6 +354,8 @@ Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
       return bad_input(path, 0, "", "not an OpenCV FileStorage file");
   } catch (const cv::Exception& e) {
     return parse_error(path, e);
+  } catch (const std::exception& e) {  // OpenCV's parser lets others through (found by fuzzing)
+    return bad_input(path, 0, "", std::string("not a readable OpenCV FileStorage file: ") + e.what());
   }
   try {
     // A key looked up in anything but a map throws (a file whose top level is a list).
@@ -349,6 +363,8 @@ Result<StereoCalibration> load_stereo_calibration(const std::string& path) {
     return read_calibration(path, fs);
   } catch (const cv::Exception& e) {
     return parse_error(path, e);
+  } catch (const std::exception& e) {
+    return bad_input(path, 0, "", std::string("not a readable OpenCV FileStorage file: ") + e.what());
   }
 }
 
@@ -358,9 +374,9 @@ Result<StereoCalibration> read_calibration(const std::string& path, const cv::Fi
   const CalibrationReader reader(path, fs);
   StereoCalibration c;
 
-  Result<int> w = reader.positive_int("image_width");
+  Result<int> w = reader.positive_int("image_width", kMaxImageSide);
   if (!w) return w.error();
-  Result<int> h = reader.positive_int("image_height");
+  Result<int> h = reader.positive_int("image_height", kMaxImageSide);
   if (!h) return h.error();
   c.image_size = {*w, *h};
 
