@@ -25,18 +25,6 @@ namespace {
 
 fs::path scenario(const std::string& name) { return vigil::test::source_dir() / "scenarios" / (name + ".yaml"); }
 
-Output shell(const std::string& cmd) {
-  Output o;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return o;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) o.out.append(buf.data(), n);
-  const int status = pclose(p);
-  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return o;
-}
-
 // Lines of a JSON Lines file, optionally only those whose "type" is `type`.
 std::vector<nlohmann::json> lines_of(const fs::path& p, const std::string& type = "") {
   std::vector<nlohmann::json> out;
@@ -61,7 +49,7 @@ TEST(Mcap, ExportsTheRunWithFoxgloveSchemasInTimeOrderAndItReadsBack) {
   ASSERT_EQ(o.code, 0) << o.out;
   ASSERT_TRUE(fs::exists(run / "run.mcap")) << o.out;
   const std::string tools = (vigil::test::source_dir() / "tools" / "export_mcap.sh").string();
-  const Output check = shell("bash " + tools + " --check " + (run / "run.mcap").string() + " --at 5 2>/dev/null");
+  const Output check = vigil::test::shell("bash " + tools + " --check " + (run / "run.mcap").string() + " --at 5", false);
   ASSERT_EQ(check.code, 0) << check.out;
   const auto j = nlohmann::json::parse(check.out);
   EXPECT_TRUE(j["time_ordered"].get<bool>());

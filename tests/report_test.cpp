@@ -36,15 +36,8 @@ bool have_chromium() { return std::system("command -v chromium >/dev/null 2>&1")
 std::string chromium(const fs::path& page, const std::string& fragment, const std::string& mode, const fs::path& profile) {
   const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --force-device-scale-factor=1 "
                           "--window-size=1400,1400 --virtual-time-budget=4000 --user-data-dir=" +
-                          profile.string() + " " + mode + " 'file://" + fs::absolute(page).string() + fragment + "' 2>/dev/null";
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  pclose(p);
-  return out;
+                          profile.string() + " " + mode + " 'file://" + fs::absolute(page).string() + fragment + "'";
+  return vigil::test::shell(cmd, false).out;
 }
 
 // An attribute of the page's <html> element in a dumped DOM ("" when absent).

@@ -26,9 +26,10 @@ struct Output {
   std::string out;  // stdout, and stderr too unless asked otherwise
 };
 
-// Runs `vigil ARGS` (a shell command line) and waits for it.
-inline Output vigil_cmd(const std::string& args, bool merge_stderr = true) {
-  const std::string cmd = vigil_binary().string() + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
+// Runs a shell command line and waits for it: its exit code and what it printed (stdout, and
+// stderr too unless asked otherwise).
+inline Output shell(const std::string& command, bool merge_stderr = true) {
+  const std::string cmd = command + (merge_stderr ? " 2>&1" : " 2>/dev/null");
   Output o;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return o;
@@ -38,6 +39,11 @@ inline Output vigil_cmd(const std::string& args, bool merge_stderr = true) {
   const int status = pclose(p);
   o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return o;
+}
+
+// Runs `vigil ARGS` (a shell command line) and waits for it.
+inline Output vigil_cmd(const std::string& args, bool merge_stderr = true) {
+  return shell(vigil_binary().string() + " " + args, merge_stderr);
 }
 
 // A whole file as bytes ("" when it cannot be read).
