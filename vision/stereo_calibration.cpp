@@ -85,7 +85,7 @@ class CalibrationReader {
     if (!n.isInt() && !n.isReal()) return error(key, "must be a positive integer");
     const double v = n.real();
     if (!(v > 0) || v != std::floor(v) || v > max)
-      return error(key, "must be a whole number from 1 to " + std::to_string(static_cast<long long>(max)) + ", got " +
+      return error(key, "must be a positive integer up to " + std::to_string(static_cast<long long>(max)) + ", got " +
                             std::to_string(v));
     return static_cast<int>(v);
   }
