@@ -16,7 +16,6 @@
 
 #include "tools/vigil/commands.h"
 #include "tools/vigil/run_dir.h"
-#include "world/robot_model.h"
 
 namespace vigil::cli {
 namespace {
@@ -83,18 +82,7 @@ void add_export_mcap_command(CLI::App& app) {
                       {"plugin", c.plugin}});
     }
     j["cameras"] = cams;
-    nlohmann::ordered_json ents = nlohmann::ordered_json::object();
-    for (const auto& r : sc.robots) {
-      double radius = 0.25;
-      if (auto m = load_robot_model(r.urdf)) radius = m->radius;
-      ents[r.id] = {{"kind", "robot"}, {"radius", radius}, {"height", 0.5}, {"colour", "#28a028"}};
-    }
-    for (const auto& p : sc.people)
-      ents[p.id] = {{"kind", "person"}, {"radius", p.radius}, {"height", p.height}, {"colour", p.shirt}};
-    for (const auto& ob : sc.objects)
-      ents[ob.id] = {{"kind", to_string(ob.kind)}, {"size", {ob.size_x, ob.size_y, ob.size_z}}, {"colour", ob.colour},
-                     {"authorised", ob.authorised}};
-    j["entities"] = ents;
+    j["entities"] = scene_entities(sc);
 
     const fs::path scene_file = fs::temp_directory_path() / ("vigil_mcap_scene_" + std::to_string(::getpid()) + ".json");
     {

@@ -24,7 +24,6 @@
 
 #include "tools/vigil/commands.h"
 #include "tools/vigil/run_dir.h"
-#include "world/robot_model.h"
 #include "world/scenario.h"
 #include "world/topdown.h"
 
@@ -188,19 +187,7 @@ void add_report_command(CLI::App& app) {
                    {"origin_y", view.origin().y},
                    {"height_m", view.height_m()},
                    {"file", scenario->map.filename().string()}};
-    // Entities: kind, colour, size.
-    ojson entities = ojson::object();
-    for (const auto& r : scenario->robots) {
-      double radius = 0.25;
-      if (auto m = load_robot_model(r.urdf)) radius = m->radius;
-      entities[r.id] = {{"kind", "robot"}, {"radius", radius}, {"colour", "#28a028"}};
-    }
-    for (const auto& p : scenario->people)
-      entities[p.id] = {{"kind", "person"}, {"radius", p.radius}, {"colour", p.shirt}};
-    for (const auto& ob : scenario->objects)
-      entities[ob.id] = {{"kind", to_string(ob.kind)}, {"size_x", ob.size_x}, {"size_y", ob.size_y}, {"colour", ob.colour},
-                         {"authorised", ob.authorised}};
-    data["entities"] = entities;
+    data["entities"] = scene_entities(*scenario);
     ojson cameras = ojson::array();
     for (const auto& c : scenario->cameras) {
       ojson cam = {{"id", c.id}, {"x", c.position.x}, {"y", c.position.y}, {"yaw", c.yaw}, {"rate_hz", c.rate_hz}};

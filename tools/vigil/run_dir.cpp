@@ -6,6 +6,7 @@
 #include "tools/vigil/commands.h"
 #include "world/floorplan.h"
 #include "world/map.h"
+#include "world/robot_model.h"
 
 namespace vigil::cli {
 
@@ -17,6 +18,21 @@ nlohmann::json read_json_object(const std::filesystem::path& p) {
   nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
   if (j.is_discarded() || !j.is_object()) throw Exit{report(bad_input(p.string(), 0, "", "not a JSON object"))};
   return j;
+}
+
+nlohmann::ordered_json scene_entities(const Scenario& sc) {
+  nlohmann::ordered_json ents = nlohmann::ordered_json::object();
+  for (const auto& r : sc.robots) {
+    double radius = 0.25;
+    if (auto m = load_robot_model(r.urdf)) radius = m->radius;
+    ents[r.id] = {{"kind", "robot"}, {"radius", radius}, {"height", 0.5}, {"colour", "#28a028"}};
+  }
+  for (const auto& p : sc.people)
+    ents[p.id] = {{"kind", "person"}, {"radius", p.radius}, {"height", p.height}, {"colour", p.shirt}};
+  for (const auto& ob : sc.objects)
+    ents[ob.id] = {{"kind", to_string(ob.kind)}, {"size", {ob.size_x, ob.size_y, ob.size_z}}, {"size_x", ob.size_x},
+                   {"size_y", ob.size_y}, {"colour", ob.colour}, {"authorised", ob.authorised}};
+  return ents;
 }
 
 RunScene load_run_scene(const std::filesystem::path& run, const std::string& scenario_override) {
