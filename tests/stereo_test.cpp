@@ -151,9 +151,23 @@ TEST_F(StereoTest, BothAlgorithmsRecoverAKnownShift) {
       cv::Mat err;
       cv::absdiff((*d)(inner), 13.0, err);
       EXPECT_EQ(cv::countNonZero((err > 0.5) & valid), 0) << what;
-      // Pixels at the left edge cannot be matched and are marked invalid.
-      EXPECT_EQ(cv::countNonZero((*d)(cv::Rect(0, 0, 10, 240)) > 0), 0) << what;
+      // The band OpenCV leaves unmatched (the search range's width at the left edge) is matched
+      // where its match lies inside the right image (full_width, the default)...
+      const cv::Rect band(13 + 4, 20, 80 - 17, 200);
+      const cv::Mat band_valid = (*d)(band) > 0;
+      EXPECT_GT(cv::countNonZero(band_valid), 0.9 * band.area()) << what;
+      cv::absdiff((*d)(band), 13.0, err);
+      EXPECT_EQ(cv::countNonZero((err > 0.5) & band_valid), 0) << what;
+      // ...and pixels whose match would lie left of the right image are (nearly all) unmatched.
+      EXPECT_LT(cv::countNonZero((*d)(cv::Rect(0, 0, 13, 240)) > 0), 0.01 * 13 * 240) << what;
       EXPECT_EQ((*d).at<float>(120, 2), StereoMatcher::kInvalidDisparity) << what;
+      // Without full_width, OpenCV's band is unmatched: nothing valid in its first columns.
+      StereoMatcherParams narrow = params;
+      narrow.full_width = false;
+      auto nd = StereoMatcher::create(narrow)->compute(left, right);
+      ASSERT_TRUE(nd.ok());
+      EXPECT_EQ(cv::countNonZero((*nd)(cv::Rect(0, 0, 60, 240)) > 0), 0) << what;
+      EXPECT_EQ(cv::countNonZero((*nd)(inner) != (*d)(inner)) , 0) << what << ": the rest is unchanged";
     }
   }
 }

@@ -77,6 +77,18 @@ TEST(TrackIo, WriterPrintsFixedDecimalsInAFixedKeyOrder) {
   auto frac = parse_track_json("{\"t_ns\":5,\"camera\":\"c\",\"id\":1,\"class\":\"bag\",\"x\":1,\"y\":2,\"hand_on\":1.5}", "f", 3);
   ASSERT_FALSE(frac);
   EXPECT_EQ(frac.error().key, "hand_on");
+  // An object cut by the image's top edge is marked while it is, and read back.
+  Track cut = sample();
+  cut.top_cut = true;
+  const std::string cl = format_track_json(cut);
+  EXPECT_NE(cl.find("\"top_cut\":true"), std::string::npos) << cl;
+  EXPECT_EQ(format_track_json(sample()).find("top_cut"), std::string::npos);
+  auto cb = parse_track_json(cl, "x", 1);
+  ASSERT_TRUE(cb) << cb.error().str();
+  EXPECT_TRUE(cb->top_cut);
+  auto notbool = parse_track_json("{\"t_ns\":5,\"camera\":\"c\",\"id\":1,\"class\":\"bag\",\"x\":1,\"y\":2,\"top_cut\":1}", "f", 4);
+  ASSERT_FALSE(notbool);
+  EXPECT_EQ(notbool.error().key, "top_cut");
 }
 
 TEST(TrackIo, RoundTripsThroughAFile) {

@@ -288,5 +288,64 @@ TEST(VisionSensorHost, BagTracksWhereARobotReportsItselfAreThatRobot) {
   EXPECT_EQ(robots, bags);
 }
 
+// Reports robot-sized tracks whose top the image cuts (legs under the top edge at the far end of
+// the view): one on each robot's wheel odometry, one a metre to its side.
+class CutTracksAtRobots : public VisionSensor {
+ public:
+  std::vector<ParamSpec> params() const override { return {}; }
+  Status configure(const ParamSet&, const SensorContext&) override { return Status::Ok(); }
+  bool wants_frames() const override { return false; }
+  Status tick(const vision::StereoFrame*, const World& world, std::vector<vision::Track>* out) override {
+    int id = 1;
+    for (const RobotEntity& r : world.robots()) {
+      for (double side : {0.0, 1.0}) {
+        vision::Track t;
+        t.stamp_ns = world.time();
+        t.camera = "cam_corridor";
+        t.id = id++;
+        t.cls = vision::TrackClass::kRobot;
+        t.x = r.state.odometry.x;
+        t.y = r.state.odometry.y + side;
+        t.height = 0.9;
+        t.width = 0.4;
+        t.top_cut = true;
+        out->push_back(t);
+      }
+    }
+    // And one not cut, far from every robot: a robot by its shape, whatever the reports say.
+    vision::Track whole;
+    whole.stamp_ns = world.time();
+    whole.camera = "cam_corridor";
+    whole.id = 99;
+    whole.cls = vision::TrackClass::kRobot;
+    whole.x = -50;
+    whole.y = -50;
+    whole.height = 0.8;
+    whole.width = 0.4;
+    out->push_back(whole);
+    return Status::Ok();
+  }
+};
+
+// A track classed robot by a height the top of the image cut is a robot only where a robot
+// reports itself; elsewhere it is a person cut off at the waist. A whole one stays a robot.
+TEST(VisionSensorHost, CutTracksAreRobotsOnlyWhereARobotReportsItself) {
+  register_vision_sensor("test_cut_tracks_at_robots", [] { return std::make_unique<CutTracksAtRobots>(); });
+  Scenario sc = load("dis_left_bag");
+  sc.duration = 2;
+  camera(sc, "cam_corridor").plugin = "test_cut_tracks_at_robots";
+  ASSERT_FALSE(sc.robots.empty());
+  const RunResult r = run_with(sc);
+  ASSERT_FALSE(r.tracks.empty());
+  int robots = 0, people = 0;
+  for (const auto& t : r.tracks) {
+    const bool on_robot = t.id == 99 || t.id % 2 == 1;
+    EXPECT_EQ(t.cls, on_robot ? vision::TrackClass::kRobot : vision::TrackClass::kPerson) << "track " << t.id;
+    (on_robot ? robots : people)++;
+  }
+  EXPECT_GT(people, 0);
+  EXPECT_GT(robots, people);
+}
+
 }  // namespace
 }  // namespace vigil::sensors

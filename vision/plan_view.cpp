@@ -217,6 +217,30 @@ Result<PlanViewBuilder> PlanViewBuilder::create(const StereoCameraModel& camera,
   b.origin_y_ = static_cast<float>((C.y() - b.grid_.y_min) * inv + 0.5);
   b.origin_z_ = static_cast<float>(C.z() - params.floor_z);
   b.weight_ = static_cast<float>(1.0 / (k.fx * k.fy * cell * cell));
+  // The view ceiling: the point (x, y, h) is q(h) = q0 + h a in the camera's optical frame and
+  // at image row v(h) = fy q.y / q.z + cy; the top edge (v = -0.5) is crossed at the h solving
+  // fy (q0.y + h a.y) = (-0.5 - cy) (q0.z + h a.z).
+  b.ceiling_.create(b.grid_.rows, b.grid_.cols, CV_32F);
+  const Eigen::Matrix3d Rt = R.transpose();
+  const Eigen::Vector3d a = Rt.col(2);
+  const double top = -0.5 - k.cy, h_max = params.max_height;
+  for (int r = 0; r < b.grid_.rows; ++r) {
+    float* c = b.ceiling_.ptr<float>(r);
+    for (int col = 0; col < b.grid_.cols; ++col) {
+      const Eigen::Vector2d m = b.grid_.to_map(col, r);
+      const Eigen::Vector3d q0 = Rt * (Eigen::Vector3d(m.x(), m.y(), params.floor_z) - C);
+      const double den = k.fy * a.y() - top * a.z();
+      double h = h_max;
+      if (std::abs(den) > 1e-12) {
+        const double cross = (top * q0.z() - k.fy * q0.y()) / den;
+        // Rising above `cross` leaves the view when v falls with height there (dv/dh has the
+        // sign of a.y q0.z - q0.y a.z), in front of the camera.
+        if (a.y() * q0.z() - q0.y() * a.z() < 0 && q0.z() + std::max(cross, 0.0) * a.z() > 0)
+          h = std::clamp(cross, 0.0, h_max);
+      }
+      c[col] = static_cast<float>(h);
+    }
+  }
   return b;
 }
 
@@ -267,6 +291,7 @@ Status PlanViewBuilder::build(const cv::Mat& foreground, const cv::Mat& depth, P
   out->smoothing = params_.smooth_sigma;
   out->camera_xy = camera_.map_from_optical().translation().head<2>();
   out->camera_height = camera_.map_from_optical().translation().z() - params_.floor_z;
+  out->ceiling = ceiling_;
 
   float* occ = out->occupancy.ptr<float>(0);
   float* hgt = out->height.ptr<float>(0);

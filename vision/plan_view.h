@@ -98,6 +98,11 @@ struct PlanView {
   cv::Rect active;             // every non-zero cell of every map lies inside (empty: none)
   Eigen::Vector2d camera_xy = Eigen::Vector2d::Zero();  // the camera's map-frame x, y
   double camera_height = 0;    // m, the camera above the floor
+  // The camera's view ceiling: per cell, the height above the floor (m) where a vertical line
+  // there leaves the top of the image (max_height where it does not within the band). An object
+  // whose top reaches it is cut by the image's top edge: its plan-view height is a lower bound.
+  // The same matrix every frame (the camera does not move); empty: not known.
+  cv::Mat ceiling;
   double smoothing = 0;        // cells, sigma of the Gaussian that made occupancy_smoothed
   int points = 0;              // foreground points binned
   int invalid_depth = 0;       // foreground pixels skipped: depth 0, negative, NaN, inf, > max
@@ -139,6 +144,7 @@ class PlanViewBuilder {
   std::vector<float> col_x_, col_y_, col_z_, row_x_, row_y_, row_z_;
   float origin_x_ = 0, origin_y_ = 0, origin_z_ = 0;  // camera centre: cells (+0.5), m above floor
   float weight_ = 0;                                  // 1 / (fx * fy * cell^2)
+  cv::Mat ceiling_;                                   // PlanView::ceiling
 };
 
 }  // namespace vigil::vision

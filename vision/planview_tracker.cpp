@@ -160,6 +160,7 @@ Status PlanViewTrackerParams::validate() const {
   if (min_hits < 1) return param_error("min_hits", "must be at least 1");
   if (max_missed < 1) return param_error("max_missed", "must be at least 1");
   if (max_occluded < 0) return param_error("max_occluded", "must be >= 0");
+  if (max_occluded_bag < 0) return param_error("max_occluded_bag", "must be >= 0");
   if (report_missed < 0) return param_error("report_missed", "must be >= 0");
   if (!(gate >= 0) || !std::isfinite(gate)) return param_error("gate", "must be >= 0 (0 = none)");
   if (!(occluded_position_noise > 0)) return param_error("occluded_position_noise", "must be positive");
@@ -217,6 +218,7 @@ struct PlanViewTracker::Impl {
     double confidence = 0;
     std::array<double, 4> votes{};
     TrackClass cls = TrackClass::kUnknown;
+    bool top_cut = false;  // at its last full measurement, its top reached the view's ceiling
   };
 
   const PlanViewGrid grid;
@@ -225,6 +227,7 @@ struct PlanViewTracker::Impl {
   std::vector<float> gauss;  // T x T, core Gaussian centred on (half, half)
   cv::Mat occ, hgt, claim;   // padded copies (pad cells of zeros around the grid)
   cv::Rect copied;           // grid rect copied into occ/hgt last frame
+  cv::Mat ceiling;           // this frame's PlanView::ceiling (empty: not known)
   std::vector<cv::Rect> claimed;  // padded rects written in `claim` this frame
   cv::Mat labels;            // connected blobs of the mask over view.active (CV_32S)
   cv::Point label_origin;
@@ -659,6 +662,15 @@ struct PlanViewTracker::Impl {
     t.cls = static_cast<TrackClass>(best);
   }
 
+  // True when a top at `height` (m) measured around cell `c` reaches the camera's view ceiling
+  // there (within top_cut_margin): the image's top edge cuts the object.
+  bool reaches_ceiling(const Eigen::Vector2d& c, double height) const {
+    if (ceiling.empty() || p.top_cut_margin < 0) return false;
+    const int col = std::clamp(static_cast<int>(std::lround(c.x())), 0, ceiling.cols - 1);
+    const int row = std::clamp(static_cast<int>(std::lround(c.y())), 0, ceiling.rows - 1);
+    return height >= ceiling.at<float>(row, col) - p.top_cut_margin;
+  }
+
   // Measures the object at cell `c` (centre of mass, height, width) and updates the track.
   // False (and nothing changed) when the measurement fails the gate.
   // On a blob shared with another track (see shared_blob) only the position is measured: the
@@ -685,6 +697,7 @@ struct PlanViewTracker::Impl {
     } else {
       correct(t, z);
       cut_templates(t, c, rate);
+      t.top_cut = reaches_ceiling(c, z(2));
     }
     add_claim(c);
     t.updated = true;
@@ -964,7 +977,15 @@ struct PlanViewTracker::Impl {
         a[k] = far ? static_cast<uint16_t>(std::min(a[k] + 1, 60000)) : 0;
       }
     }
+    // Only cells below a bag's top now: a standing person's body smeared by stereo past
+    // split_radius is as still as the bag beside her and, counted with it, joined the bag's cells
+    // to a residual as tall as a person, which was never born.
     cv::Mat still = age >= p.split_still_frames, parts;
+    {
+      cv::Mat low;
+      cv::compare(hgt(cv::Rect(roi.x + pad, roi.y + pad, roi.width, roi.height)), p.classes.bag_max_height, low, cv::CMP_LT);
+      still &= low;
+    }
     const int n = cv::connectedComponents(still, parts, 8, CV_32S);
     if (n <= 1) return;
     std::vector<Blob> pb = blob_moments(parts, roi.tl(), n);
@@ -1046,6 +1067,8 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   m.camera_height = view.camera_height;
   m.smoothing = view.smoothing;
   m.copy_maps(view);
+  m.ceiling = view.ceiling.size() == view.occupancy_smoothed.size() && view.ceiling.type() == CV_32F ? view.ceiling
+                                                                                                     : cv::Mat();
   m.find_blobs(view);
   m.clear_claims();
 
@@ -1073,7 +1096,7 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
   m.count_misses(dt);
   std::erase_if(m.tracks, [&](const Impl::Trk& t) {
     return (!t.confirmed && t.misses > 0) || t.misses >= params_.max_missed ||
-           t.occluded > params_.max_occluded;
+           t.occluded > (t.cls == TrackClass::kBag ? params_.max_occluded_bag : params_.max_occluded);
   });
 
   std::vector<Track> out;
@@ -1093,6 +1116,7 @@ Result<std::vector<Track>> PlanViewTracker::update(const PlanView& view, int64_t
     r.width = t.x(5);
     r.confidence = t.confidence;
     r.measured = !t.missed;
+    r.top_cut = t.top_cut;
     out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });

@@ -71,9 +71,10 @@
 // Occlusion (figure 10.6): a track missed while another track seen this frame stands between it
 // and the camera (in the plan view: nearer the camera, across its line of sight, and tall enough
 // to hide at least half of its height from the camera's height) is occluded rather than missing
-// and is kept for up to max_occluded frames, so a bag or a person hidden for a while by someone
-// walking in front keeps its id. While occluded, a track is fully updated only on a good match
-// (score under occluded_match * track_threshold); on a weaker one only its position is, loosely,
+// and is kept for up to max_occluded frames (max_occluded_bag for a bag), so a bag or a person
+// hidden for a while by someone walking in front, or standing there, keeps its id. While
+// occluded, a track is fully updated only on a good match (score under occluded_match *
+// track_threshold); on a weaker one only its position is, loosely,
 // from the visible part (a partial view would drag its shape and templates); a blob near it is
 // taken as its visible part (no birth). A coasting track keeps its velocity unless it is slow or a
 // bag (held still: bags do not walk, and slow apparent motion is mostly blob transients), or its
@@ -153,7 +154,9 @@ struct PlanViewTrackerParams {
   // Life cycle.
   int min_hits = 3;               // matches before a track is reported
   int max_missed = 15;            // frames without a match before a track is deleted...
-  int max_occluded = 75;          // ...or frames while occluded (see the header comment)
+  int max_occluded = 75;          // ...or frames while occluded (see the header comment),
+  int max_occluded_bag = 150;     // or, for a bag (which does not walk), this many: its owner may
+                                  // stand in front of it for longer than a passer-by would
   int report_missed = 4;          // a missing track (not occluded) is reported for at most this many
                                   // frames, then kept unreported (for re-acquisition) to max_missed
   bool hold_bag_on_blob = true;   // a bag missed while its place is still on a blob is held as hidden
@@ -202,6 +205,10 @@ struct PlanViewTrackerParams {
   // enough that a few seconds of a merged blob (a robot passing a bag) do not flip an established
   // class, short enough that a wrong first impression (an object entering half seen) is corrected.
   double class_vote_decay = 0.99;
+  // A track whose measured top comes within this of the camera's view ceiling at its place
+  // (PlanView::ceiling: the top of the image cuts it, so its height is only a lower bound) is
+  // reported with Track::top_cut. Negative: never.
+  double top_cut_margin = 0.1;
   // Checks every field; the error's key is the field's name.
   Status validate() const;
 };

@@ -133,6 +133,10 @@ Result<StereoMatcher> StereoMatcher::create(const StereoMatcherParams& params) {
 }
 
 Result<cv::Mat> StereoMatcher::compute(const cv::Mat& left, const cv::Mat& right) const {
+  return match_pair(left, right, params_.full_width);
+}
+
+Result<cv::Mat> StereoMatcher::match_pair(const cv::Mat& left, const cv::Mat& right, bool pad) const {
   if (left.empty() || right.empty())
     return bad_input("", 0, left.empty() ? "left" : "right", "empty image given to the matcher");
   if (left.size() != right.size() || left.type() != right.type())
@@ -147,23 +151,38 @@ Result<cv::Mat> StereoMatcher::compute(const cv::Mat& left, const cv::Mat& right
                          std::to_string(reach) + " and blocks of " +
                          std::to_string(params_.block_size));
   // OpenCV returns 16 * disparity in CV_16S and marks failures with (min_disparity - 1) * 16.
+  // With `pad`, the pair gets `reach` black columns on the left and the result is cut back.
+  const int band = pad ? reach : 0;
   auto match = [&](const cv::Mat& l_in, const cv::Mat& r_in, cv::Mat* disparity) -> Status {
     cv::Mat raw;
     try {
+      cv::Mat lp = l_in, rp = r_in;
+      if (band > 0) {
+        cv::copyMakeBorder(l_in, lp, 0, 0, band, 0, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+        cv::copyMakeBorder(r_in, rp, 0, 0, band, 0, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+      }
       if (bm_) {
-        bm_->compute(as_grey(l_in), as_grey(r_in), raw);
+        bm_->compute(as_grey(lp), as_grey(rp), raw);
       } else {
-        const cv::Mat l = as_grey_or_bgr(l_in), r = as_grey_or_bgr(r_in);
+        const cv::Mat l = as_grey_or_bgr(lp), r = as_grey_or_bgr(rp);
         const int area = params_.block_size * params_.block_size;
         sgbm_->setP1(params_.p1 > 0 ? params_.p1 : 8 * l.channels() * area);
         sgbm_->setP2(params_.p2 > 0 ? params_.p2 : 32 * l.channels() * area);
         sgbm_->compute(l, r, raw);
       }
+      if (band > 0) raw = raw.colRange(band, raw.cols);
     } catch (const cv::Exception& e) {
       return internal_error("stereo matching failed: " + std::string(e.what()));
     }
     raw.convertTo(*disparity, CV_32F, 1.0 / 16.0);
     disparity->setTo(kInvalidDisparity, raw < params_.min_disparity * 16);
+    // In the padded band, a match whose block reaches into the black is none.
+    const int half = params_.block_size / 2;
+    for (int y = 0; band > 0 && y < disparity->rows; ++y) {
+      float* d = disparity->ptr<float>(y);
+      for (int x = 0; x < std::min(band, disparity->cols); ++x)
+        if (!(d[x] > 0) || x - d[x] < half) d[x] = kInvalidDisparity;
+    }
     return Status::Ok();
   };
   cv::Mat disparity;
@@ -248,7 +267,8 @@ Result<cv::Mat> StereoMatcher::compute_in(const cv::Mat& left, const cv::Mat& ri
   }
   for (size_t i = 0; i < boxes.size(); ++i) {
     const cv::Rect& c = crops[i];
-    auto d = compute(left(c), right(c));
+    // A crop away from the image's left edge already reaches the search range further left.
+    auto d = match_pair(left(c), right(c), params_.full_width && c.x == 0);
     if (!d) return d.error();
     const cv::Rect keep = boxes[i] & c;
     (*d)(keep - c.tl()).copyTo(disparity(keep));

@@ -46,6 +46,14 @@ struct StereoMatcherParams {
   // locking error has the opposite sign, and the two disparities are averaged where both are
   // valid and within 1 px of each other (elsewhere the first pass is kept). Twice the time.
   bool half_pixel_pass = false;
+  // Disparities in the left image's first min_disparity + num_disparities columns too. OpenCV
+  // leaves that band without any (its search would run off the right image), yet a point there
+  // whose match lies inside the right image has one: a person 7 m away at the view's left edge is
+  // 7 px of disparity, not 64. With this set, both images are padded on the left by the band's
+  // width in black before matching and the result is cut back, so the band gets the disparities
+  // its matches in the right image allow (points whose match is outside it stay unmatched: the
+  // left-right check refuses the black). 10 % more matching at 640 px wide.
+  bool full_width = true;
 
   // Defaults for StereoBM (block 15, pre-filter cap 31); the other fields as above.
   static StereoMatcherParams bm();
@@ -89,6 +97,8 @@ class StereoMatcher {
 
  private:
   explicit StereoMatcher(const StereoMatcherParams& params) : params_(params) {}
+  // compute(), padding the pair on the left first when `pad` (see full_width).
+  Result<cv::Mat> match_pair(const cv::Mat& left, const cv::Mat& right, bool pad) const;
   StereoMatcherParams params_;
   cv::Ptr<cv::StereoBM> bm_;      // set for kBM
   cv::Ptr<cv::StereoSGBM> sgbm_;  // set for kSGBM; its default penalties follow the input's channels

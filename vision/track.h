@@ -29,6 +29,8 @@ struct Track {
   double confidence = 0;      // 0..1
   bool measured = true;       // false: not seen on this frame; position and size are the tracker's
                               // prediction (a track coasting after a miss, or held while occluded)
+  bool top_cut = false;       // the object reaches above the camera's view here (the top of the
+                              // image cuts it): `height` is a lower bound, and `cls` from it a guess
   int hand_on = 0;            // the id of a track (an object) this one's hand is seen on, this
                               // frame; 0: none, or the tracker does not see hands (Tracker::sees_hands)
 };

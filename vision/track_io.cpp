@@ -54,6 +54,7 @@ std::string format_track_json(const Track& t) {
                   ",\"id\":" + std::to_string(t.id) + ",\"class\":\"" + std::string(to_string(t.cls)) + "\"";
   for (const auto& f : kNumbers) s += std::string(",\"") + f.key + "\":" + num4(t.*(f.member));
   if (!t.measured) s += ",\"measured\":false";  // written only for predictions (absent: measured)
+  if (t.top_cut) s += ",\"top_cut\":true";       // only while the top of the image cuts the object
   if (t.hand_on != 0) s += ",\"hand_on\":" + std::to_string(t.hand_on);  // only while a hand is seen on something
   s += "}";
   return s;
@@ -107,6 +108,10 @@ Result<Track> parse_track_json(std::string_view text, const std::string& file, i
   if (const auto it = j.find("measured"); it != j.end()) {
     if (!it->is_boolean()) return bad_input(file, line, "measured", std::string("expected a boolean, got ") + type_name(*it));
     t.measured = it->get<bool>();
+  }
+  if (const auto it = j.find("top_cut"); it != j.end()) {
+    if (!it->is_boolean()) return bad_input(file, line, "top_cut", std::string("expected a boolean, got ") + type_name(*it));
+    t.top_cut = it->get<bool>();
   }
   if (j.contains("hand_on")) {
     auto hand = get_int(j, "hand_on", file, line);

@@ -210,10 +210,15 @@ Status VisionSensorHost::emit(Attached* a, const World& world, int64_t stamp_ns,
   // A bag-sized track where a robot says it is, is that robot (a robot seen through a doorway,
   // or far off with its mast unresolved, is as low as a bag): reported as a robot, as the rules
   // take it (ActivityRuleParams::robot_radius).
+  // And one whose top the image cuts (its height only a lower bound: legs below the top edge at
+  // the far end of the view) is classed robot by its height only when a robot says it is there;
+  // elsewhere it is a person cut off at the waist.
   for (vision::Track& t : *fresh) {
-    if (t.cls != vision::TrackClass::kBag) continue;
-    for (const auto& r : robots)
-      if (std::hypot(t.x - r.x, t.y - r.y) < robot_radius_) t.cls = vision::TrackClass::kRobot;
+    const bool robot_there = std::any_of(robots.begin(), robots.end(), [&](const auto& r) {
+      return std::hypot(t.x - r.x, t.y - r.y) < robot_radius_;
+    });
+    if (t.cls == vision::TrackClass::kBag && robot_there) t.cls = vision::TrackClass::kRobot;
+    if (t.cls == vision::TrackClass::kRobot && t.top_cut && !robot_there) t.cls = vision::TrackClass::kPerson;
   }
   if (a->rules) {
     auto events = a->rules->update(stamp_ns, *fresh, robots);
