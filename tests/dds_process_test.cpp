@@ -140,7 +140,7 @@ TEST(DdsProcesses, TwoRobotNodesRespondAndAKilledOneRejoins) {
   const fs::path dir = temp_dir("robots");
   const std::string s = session("robots");
   const double speed = 4, duration = 140;
-  const double epoch = unix_now() + 3;
+  const double epoch = unix_now() + 3 * test::slowdown();  // all processes up and found
   char ep[64];
   std::snprintf(ep, sizeof ep, "%.3f", epoch);
   auto robot_args = [&](const std::string& id, const std::string& out) {

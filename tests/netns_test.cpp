@@ -181,7 +181,9 @@ void three_hosts(const std::string& name, int loss) {
   Hosts net;
   std::string why;
   if (!net.make({"cam", "srv", "sub"}, &why)) GTEST_SKIP() << "no multi-host test here: " << why;
-  if (loss > 0) ASSERT_TRUE(net.lossy("cam", loss)) << "nftables loss rule";
+  if (loss > 0) {
+    ASSERT_TRUE(net.lossy("cam", loss)) << "nftables loss rule";
+  }
   const fs::path dir = test::fresh_temp_dir("netns", name);
   const std::string s = name + "-" + std::to_string(::getpid());
   const pid_t server = spawn_on(net.host("srv").ns,
@@ -208,7 +210,9 @@ void three_hosts(const std::string& name, int loss) {
   EXPECT_NE(slurp(dir / "sub.log").find("bag taken 20."), std::string::npos) << slurp(dir / "sub.log");
   EXPECT_EQ(wait_exit(server), 0) << slurp(dir / "server.log");
   EXPECT_GT(net.rx_packets("srv"), 50) << "the server's host received over its link";
-  if (loss > 0) EXPECT_GT(net.dropped("cam"), 10) << "the camera host's link dropped packets";
+  if (loss > 0) {
+    EXPECT_GT(net.dropped("cam"), 10) << "the camera host's link dropped packets";
+  }
   std::printf("[netns] %s: server host received %ld packets; camera link dropped %ld\n", name.c_str(),
               net.rx_packets("srv"), loss > 0 ? net.dropped("cam") : 0L);
   EXPECT_GT(net.rx_packets("sub"), 10) << "the subscriber's host received over its link";
@@ -290,7 +294,7 @@ TEST(NetnsHosts, RobotNodesOnTheirOwnHostsRespondAndAKilledOneRejoins) {
   const fs::path dir = test::fresh_temp_dir("netns", "robots");
   const std::string s = "robots-" + std::to_string(::getpid());
   const double speed = 4, duration = 140;
-  const double epoch = unix_now() + 5;
+  const double epoch = unix_now() + 5 * test::slowdown();  // all processes up and found
   char ep[64];
   std::snprintf(ep, sizeof ep, "%.3f", epoch);
   auto cfg = [&](const std::string& h) { return net.config(h, dir).string(); };
@@ -353,7 +357,9 @@ TEST(NetnsHosts, RobotNodesOnTheirOwnHostsRespondAndAKilledOneRejoins) {
       arrived = arrived || l.find("\"arrived_at_incident\"") != std::string::npos;
     }
     EXPECT_TRUE(assigned) << "incident " << in.id << " assigned";
-    if (in.kind == vision::EventKind::kBagTaken) EXPECT_TRUE(arrived) << "the bag taken's robot arrives";
+    if (in.kind == vision::EventKind::kBagTaken) {
+      EXPECT_TRUE(arrived) << "the bag taken's robot arrives";
+    }
   }
   EXPECT_NE(slurp(dir / "assignments.log").find("keep"), std::string::npos) << "the operator's host saw the keepers";
   EXPECT_GT(net.rx_packets("r2"), 100);

@@ -23,6 +23,24 @@ extern char** environ;
 
 namespace vigil::test {
 
+// 1, or 5 when this test is built with AddressSanitizer or ThreadSanitizer (tools/test.sh
+// --sanitize): the factor on a wall-clock lead given to other processes (an epoch a few seconds
+// ahead, by which they must all have started and found each other), as sanitized processes start
+// several times slower.
+inline double slowdown() {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  return 5;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+  return 5;
+#else
+  return 1;
+#endif
+#else
+  return 1;
+#endif
+}
+
 // Starts `vigil ARGS` in the background, stdout and stderr to `log`; on network namespace `ns`
 // (through `ip netns exec`) when given. The process id, or -1.
 inline pid_t spawn_vigil(const std::vector<std::string>& args, const std::filesystem::path& log, const std::string& ns = "") {
