@@ -865,7 +865,7 @@ TEST(PlanViewTracker, ABagBesideSomeoneIsBornThoughHerSmearedBodyTouchesIt) {
     if (f >= 10) {
       // The bag, 0.4 m along the line of sight, 0.2 m across, 0.45 m tall, centred 0.44 m aside.
       cv::rectangle(v.occupancy, cv::Rect(90, 117, 20, 10), cv::Scalar(2.0), cv::FILLED);
-      v.height.setTo(0.45f, v.occupancy > 0 & v.height == 0);
+      v.height.setTo(0.45f, (v.occupancy > 0) & (v.height == 0));
       // The smear of her body, 1.2 m tall, over the gap.
       const cv::Rect smear(95, 108, 10, 10);
       v.occupancy(smear).setTo(1.0);

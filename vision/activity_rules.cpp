@@ -150,7 +150,9 @@ Result<std::vector<Event>> ActivityRules::update(int64_t stamp_ns, const std::ve
       ++p.sightings;
       p.x = t.x;
       p.y = t.y;
-      p.height = t.height > 0 ? t.height : 1.7;
+      // A person the top of the image cuts is at least as tall as seen, most likely as tall as
+      // anyone: her sight-line test (hidden()) takes a typical height.
+      p.height = t.height > 0 ? (t.top_cut ? std::max(t.height, 1.7) : t.height) : 1.7;
       p.width = t.width > 0 ? t.width : 0.5;
       p.last_seen = stamp_ns;
       p.confidence = t.confidence;

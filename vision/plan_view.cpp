@@ -230,13 +230,13 @@ Result<PlanViewBuilder> PlanViewBuilder::create(const StereoCameraModel& camera,
       const Eigen::Vector2d m = b.grid_.to_map(col, r);
       const Eigen::Vector3d q0 = Rt * (Eigen::Vector3d(m.x(), m.y(), params.floor_z) - C);
       const double den = k.fy * a.y() - top * a.z();
-      double h = h_max;
+      double h = std::numeric_limits<double>::infinity();  // the top edge never cuts it in the band
       if (std::abs(den) > 1e-12) {
         const double cross = (top * q0.z() - k.fy * q0.y()) / den;
         // Rising above `cross` leaves the view when v falls with height there (dv/dh has the
         // sign of a.y q0.z - q0.y a.z), in front of the camera.
         if (a.y() * q0.z() - q0.y() * a.z() < 0 && q0.z() + std::max(cross, 0.0) * a.z() > 0)
-          h = std::clamp(cross, 0.0, h_max);
+          h = cross < h_max ? std::max(cross, 0.0) : h;
       }
       c[col] = static_cast<float>(h);
     }

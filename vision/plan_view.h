@@ -99,7 +99,7 @@ struct PlanView {
   Eigen::Vector2d camera_xy = Eigen::Vector2d::Zero();  // the camera's map-frame x, y
   double camera_height = 0;    // m, the camera above the floor
   // The camera's view ceiling: per cell, the height above the floor (m) where a vertical line
-  // there leaves the top of the image (max_height where it does not within the band). An object
+  // there leaves the top of the image (+infinity where it does not below max_height). An object
   // whose top reaches it is cut by the image's top edge: its plan-view height is a lower bound.
   // The same matrix every frame (the camera does not move); empty: not known.
   cv::Mat ceiling;

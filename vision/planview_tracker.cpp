@@ -161,6 +161,7 @@ Status PlanViewTrackerParams::validate() const {
   if (max_missed < 1) return param_error("max_missed", "must be at least 1");
   if (max_occluded < 0) return param_error("max_occluded", "must be >= 0");
   if (max_occluded_bag < 0) return param_error("max_occluded_bag", "must be >= 0");
+  if (std::isnan(top_cut_margin)) return param_error("top_cut_margin", "must be a number (negative: off)");
   if (report_missed < 0) return param_error("report_missed", "must be >= 0");
   if (!(gate >= 0) || !std::isfinite(gate)) return param_error("gate", "must be >= 0 (0 = none)");
   if (!(occluded_position_noise > 0)) return param_error("occluded_position_noise", "must be positive");

@@ -47,11 +47,14 @@
 // who stays), would be explained by the owner's track and never born. So the cells of a blob a
 // track explains that lie farther than split_radius from every track on it, across the line of
 // sight (stereo smears along it), are residuals (the track's measured width is no guide: it
-// spans the merged blob); residual cells that stay occupied split_still_frames frames running (a carried bag
-// moves with its carrier and never does) and make up a birth's area and height, with no track
-// near, and lower than classes.bag_max_height (things put down; a taller residual is part of
-// someone: an arm over a table, a shoulder), are born as a track of their own (the stereo-shadow
-// and border rules apply).
+// spans the merged blob); residual cells that stay occupied split_still_frames frames running (a
+// carried bag moves with its carrier and never does), taken where they are now lower than
+// classes.bag_max_height (things put down; taller cells are part of someone: an arm over a table,
+// a shoulder, a standing person's body smeared by stereo past split_radius, which would otherwise
+// join a bag's cells into a residual as tall as a person), that make up a birth's area and
+// height with no track near, are born as a track of their own (the stereo-shadow and border
+// rules apply). The price: the low fringe of someone standing still, past split_radius across
+// the line of sight and of a bag's area, would be born too.
 //
 // Occlusion explains a disappearance only when the occluder was there when it happened: a track
 // lost in the open (its first missed frame not occluded) stays missing even if a track later
@@ -207,7 +210,8 @@ struct PlanViewTrackerParams {
   double class_vote_decay = 0.99;
   // A track whose measured top comes within this of the camera's view ceiling at its place
   // (PlanView::ceiling: the top of the image cuts it, so its height is only a lower bound) is
-  // reported with Track::top_cut. Negative: never.
+  // reported with Track::top_cut, until a full measurement says otherwise (a new track starts
+  // without it; shared, coasting and occluded frames keep the last). Negative: never.
   double top_cut_margin = 0.1;
   // Checks every field; the error's key is the field's name.
   Status validate() const;

@@ -176,12 +176,12 @@ Result<cv::Mat> StereoMatcher::match_pair(const cv::Mat& left, const cv::Mat& ri
     }
     raw.convertTo(*disparity, CV_32F, 1.0 / 16.0);
     disparity->setTo(kInvalidDisparity, raw < params_.min_disparity * 16);
-    // In the padded band, a match whose block reaches into the black is none.
+    // In the padded band (and a block beyond it), a match whose block reaches into the black is none.
     const int half = params_.block_size / 2;
     for (int y = 0; band > 0 && y < disparity->rows; ++y) {
       float* d = disparity->ptr<float>(y);
-      for (int x = 0; x < std::min(band, disparity->cols); ++x)
-        if (!(d[x] > 0) || x - d[x] < half) d[x] = kInvalidDisparity;
+      for (int x = 0; x < std::min(band + half, disparity->cols); ++x)
+        if (x < band ? !(d[x] > 0) || x - d[x] < half : d[x] > 0 && x - d[x] < half) d[x] = kInvalidDisparity;
     }
     return Status::Ok();
   };
