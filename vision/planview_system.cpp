@@ -32,12 +32,13 @@ Result<PlanViewSystem> PlanViewSystem::create(const StereoCameraModel& camera, c
   if (Status s = params.depth_filter.validate(); !s) return s.error();
   if (Status s = params.depth_region.validate(); !s) return s.error();
   if (Status s = params.start.validate(); !s) return s.error();
+  if (Status s = params.reid.validate(); !s) return s.error();
   auto bg = YuvdBackground::create(params.background);
   if (!bg) return bg.error();
   auto pipeline = PlanViewPipeline::create(camera, params.plan, params.tracking);
   if (!pipeline) return pipeline.error();
   return PlanViewSystem(camera, std::move(*bg), std::move(*pipeline), params.depth_filter, params.depth_region,
-                        params.start);
+                        params.start, params.reid);
 }
 
 Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
@@ -65,10 +66,35 @@ Result<std::vector<Track>> PlanViewSystem::process(const StereoFrame& frame) {
   if (Status s = background_.apply(frame.left, frame.depth, frame.depth_measured, foreground_); !s) return s.error();
   if (first && !start_mask_.empty())
     if (Status s = background_.set_background_depth(start_mask_, floor_depth); !s) return s.error();
-  if (filter_.edge_radius <= 0 || frame.depth.type() != CV_32F || frame.depth.size() != foreground_.size())
-    return pipeline_.process(foreground_, frame.depth, frame.stamp_ns);
-  filter_depth_edges(frame.depth);
-  return pipeline_.process(plan_mask_, frame.depth, frame.stamp_ns);
+  const bool filter = filter_.edge_radius > 0 && frame.depth.type() == CV_32F && frame.depth.size() == foreground_.size();
+  if (filter) filter_depth_edges(frame.depth);
+  const cv::Mat& mask = filter ? plan_mask_ : foreground_;
+  auto tracks = pipeline_.process(mask, frame.depth, frame.stamp_ns);
+  if (!tracks) return tracks;
+  reidentify(frame, mask, &*tracks);
+  return tracks;
+}
+
+void PlanViewSystem::reidentify(const StereoFrame& frame, const cv::Mat& mask, std::vector<Track>* tracks) {
+  if (!reid_params_.enabled) return;
+  std::map<int, Appearance> seen;
+  if (frame.left.type() == CV_8UC3 && frame.depth.type() == CV_32F) {
+    std::vector<cv::Rect> boxes(tracks->size());
+    for (size_t i = 0; i < tracks->size(); ++i)
+      if ((*tracks)[i].cls == TrackClass::kPerson) boxes[i] = track_image_box(camera_, (*tracks)[i], frame.left.size());
+    for (size_t i = 0; i < tracks->size(); ++i) {
+      const Track& t = (*tracks)[i];
+      if (t.cls != TrackClass::kPerson || !t.measured || boxes[i].empty()) continue;
+      // Alone in the image: no other person's box covers a fifth of hers (her colours would mix).
+      bool alone = true;
+      for (size_t j = 0; j < tracks->size() && alone; ++j)
+        alone = j == i || (boxes[i] & boxes[j]).area() * 5 < boxes[i].area();
+      if (!alone) continue;
+      Appearance a = measure_appearance(frame.left, mask, frame.depth, camera_, t, reid_params_);
+      if (!a.empty()) seen.emplace(t.id, a);
+    }
+  }
+  reid_.apply(frame.stamp_ns, tracks, seen);
 }
 
 cv::Mat PlanViewSystem::depth_wanted(const StereoFrame& frame) {
@@ -185,6 +211,7 @@ Status PlanViewSystem::find_start_objects(const cv::Mat& depth, cv::Mat* floor_d
 
 void PlanViewSystem::reset() {
   background_.reset();
+  reid_.reset();
   start_mask_.release();
   pipeline_.reset();
   foreground_.release();

@@ -13,6 +13,7 @@
 #include "vision/frame_source.h"
 #include "vision/plan_view.h"
 #include "vision/planview_tracker.h"
+#include "vision/reid.h"
 #include "vision/stereo_camera_model.h"
 #include "vision/track.h"
 #include "vision/tracker.h"
@@ -72,6 +73,7 @@ struct PlanViewSystemParams {
   DepthEdgeFilterParams depth_filter;
   PlanViewParams plan;
   PlanViewTrackerParams tracking;  // tracking.camera names the tracks' camera
+  ReidParams reid;                 // people who come back keep their id (vision/reid.h)
 };
 
 class PlanViewSystem : public Tracker {
@@ -97,6 +99,8 @@ class PlanViewSystem : public Tracker {
   const cv::Mat& foreground() const { return foreground_; }
   const PlanView& plan_view() const { return pipeline_.plan_view(); }
   const StereoCameraModel& camera() const { return camera_; }
+  // People re-identified so far (a new track that took a lost person's id).
+  int reidentified() const { return reid_.reidentified(); }
 
   // The annotated view of the last frame: the camera view with the tracks drawn (a box around
   // each track's projected cylinder, id and class), the foreground mask, and the plan-view
@@ -105,9 +109,12 @@ class PlanViewSystem : public Tracker {
 
  private:
   PlanViewSystem(StereoCameraModel camera, YuvdBackground bg, PlanViewPipeline pipeline, DepthEdgeFilterParams df,
-                 DepthRegionParams region, StartObjectParams start)
+                 DepthRegionParams region, StartObjectParams start, ReidParams reid)
       : camera_(std::move(camera)), background_(std::move(bg)), pipeline_(std::move(pipeline)), filter_(df),
-        region_(region), start_(start) {}
+        region_(region), start_(start), reid_params_(reid), reid_(reid) {}
+  // The tracker's tracks of this frame renamed to identities: people's colours measured where
+  // they stand apart from other people in the image, then the Reidentifier.
+  void reidentify(const StereoFrame& frame, const cv::Mat& mask, std::vector<Track>* tracks);
   // Drops the foreground pixels that are not on the near surface (see DepthEdgeFilterParams)
   // from plan_mask_.
   void filter_depth_edges(const cv::Mat& depth);
@@ -120,6 +127,8 @@ class PlanViewSystem : public Tracker {
   DepthEdgeFilterParams filter_;
   DepthRegionParams region_;
   StartObjectParams start_;
+  ReidParams reid_params_;
+  Reidentifier reid_;
   cv::Mat clearance_;  // distance (m) from the static map's occupied cells, CV_32F; empty: no map
   OccupancyGrid static_map_;
   cv::Mat start_mask_;

@@ -140,6 +140,10 @@ TrackerKind planview_kind() {
        "a coasting track whose speed was under this many standard deviations is held still (0 = off)"},
       {"hold_bag_on_blob", ParamType::kBool, vision::PlanViewTrackerParams{}.hold_bag_on_blob, 0, 0,
        "a bag missed while its place is still on a blob is held there as hidden"},
+      {"reid", ParamType::kBool, vision::ReidParams{}.enabled, 0, 0,
+       "a person who comes back (a new track) takes the id of one lost earlier dressed alike (vision/reid.h)"},
+      {"reid_max_distance", ParamType::kNumber, vision::ReidParams{}.max_distance, 0, 1000,
+       "colour distance (YUV) under which a new person is one lost earlier"},
   };
   k.make = [](const ParamSet& p, const SensorContext& ctx) -> Result<std::unique_ptr<vision::Tracker>> {
     vision::PlanViewSystemParams sp;
@@ -157,6 +161,8 @@ TrackerKind planview_kind() {
     sp.tracking.split_window = p.integer("split_window");
     sp.tracking.coast_min_sigmas = p.number("coast_min_sigmas");
     sp.tracking.hold_bag_on_blob = p.boolean("hold_bag_on_blob");
+    sp.reid.enabled = p.boolean("reid");
+    sp.reid.max_distance = p.number("reid_max_distance");
     const std::string where = p.string("stereo_where");
     if (where != "foreground" && where != "everywhere")
       return bad_input("", 0, "stereo_where", "expected foreground or everywhere, got '" + where + "'");
