@@ -171,15 +171,15 @@ TEST(DdsLoopback, PublisherServerSubscriberWithLateJoiner) {
 
   ASSERT_TRUE((*pub)->publish(seen_by(cams[0], 1, EventKind::kLeftBag, 21.0, 2.7, 0.2, 20'000'000'000)).ok());
   ASSERT_TRUE((*pub)->publish(seen_by(cams[0], 2, EventKind::kBagTaken, 21.0, 2.7, 0.2, 30'000'000'000)).ok());
-  // A malformed report, written raw: a NaN coordinate (Cyclone itself refuses to write an
-  // out-of-range enum, so a bad kind cannot reach the wire from the C API).
+  // A malformed report, written raw: a NaN coordinate. (Cyclone itself refuses to write an
+  // out-of-range enum, so a bad kind cannot reach the wire from the C API; not tried here: its
+  // refusal leaks the serialisation buffer, found by LeakSanitizer, docs/RELIABILITY.md. The
+  // server's check of a bad kind is fuzzed through the dds_messages entry.)
   std::vector<int32_t> buf;
   Event bad_event = seen_by(cams[0], 3, EventKind::kLeftBag, 21.0, 2.7, 0.2, 31'000'000'000);
   vigil_msgs_CameraEvent bad = to_message(bad_event, &buf);
   bad.position.x = std::nan("");
   ASSERT_TRUE((*pub)->writer().write_raw(&bad).ok());
-  bad.kind = static_cast<vigil_msgs_EventKind>(42);
-  EXPECT_FALSE((*pub)->writer().write_raw(&bad).ok());
   // And one outside the map.
   ASSERT_TRUE((*pub)->publish(seen_by(cams[0], 4, EventKind::kLeftBag, 80.0, 2.7, 0.2, 32'000'000'000)).ok());
 
