@@ -46,7 +46,9 @@ TEST(MserTexture, CountingSortOrdersEveryElementWithAUnit) {
   for (size_t k = 1; k < t.order.size(); ++k) {
     const auto a = t.order[k - 1], b = t.order[k];
     ASSERT_LE(t.value[a], t.value[b]);
-    if (t.value[a] == t.value[b]) ASSERT_LT(a, b) << "stable within a value";
+    if (t.value[a] == t.value[b]) {
+      ASSERT_LT(a, b) << "stable within a value";
+    }
   }
   for (int v = 0; v < 256; ++v)
     for (uint32_t k = t.level_start[v]; k < t.level_start[v + 1]; ++k) ASSERT_EQ(t.value[t.order[k]], v);
@@ -100,7 +102,9 @@ TEST(MserSegmenter, SegmentsFlatBlocksExactly) {
     } else {
       EXPECT_EQ(roots, 1);
       for (const MserNode& n : s.tree)
-        if (n.parent < 0) EXPECT_EQ(n.size, 80 * 120);
+        if (n.parent < 0) {
+          EXPECT_EQ(n.size, 80 * 120);
+        }
     }
     for (int leaf : s.leaves) EXPECT_EQ(static_cast<int>(seg.node_pixels(s, leaf).size()), s.tree[leaf].size);
   }
@@ -350,7 +354,9 @@ TEST(MserTracking, LineCornerTrackingKeepsAHalfHiddenRegionWhoseSizeChanged) {
       EXPECT_EQ(bar2, bar1) << "linked by its unchanged corners";
       EXPECT_GE(tr.counts().line, 1);
       for (const RegionTrack& t : tr.tracks()) {
-        if (t.id == bar2) EXPECT_EQ(t.phase, TrackPhase::kLine);
+        if (t.id == bar2) {
+          EXPECT_EQ(t.phase, TrackPhase::kLine);
+        }
       }
     } else {
       EXPECT_NE(bar2, bar1) << "without phase 3 the bar is lost";
@@ -448,7 +454,9 @@ void expect_walker_boxes(const std::filesystem::path& file, bool from_figure, in
   for (std::string l; std::getline(in, l);) {
     int frame, id, x, y, w, h;
     ASSERT_EQ(std::sscanf(l.c_str(), "%d,%d,%d,%d,%d,%d,1,-1,-1,-1", &frame, &id, &x, &y, &w, &h), 6) << l;
-    if (from_figure) EXPECT_GE(frame, 26);  // frames count from 1; nothing before the figure
+    if (from_figure) {
+      EXPECT_GE(frame, 26);  // frames count from 1; nothing before the figure
+    }
     const int f = frame - 1;
     const cv::Rect truth(10 + 3 * (f - 25), 40, 14, 40), box(x, y, w, h);
     EXPECT_GE(static_cast<double>((truth & box).area()) / (truth | box).area(), 0.5) << l;
