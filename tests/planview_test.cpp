@@ -673,6 +673,23 @@ TEST(PlanViewTracker, TrackLostInTheOpenIsNotHeldAsOccluded) {
   EXPECT_EQ(r.scorer.total_switches(), 0);
 }
 
+// A bag stands in view; at frame 20 someone is suddenly in front of it (a new track: their old
+// one was lost behind something) and stays 60 frames. Their track is confirmed only min_hits
+// frames after the bag is hidden, yet a bag does not walk: it is held as occluded once they are,
+// and keeps its id. A person lost in the open is not held so (TrackLostInTheOpenIsNotHeldAsOccluded).
+TEST(PlanViewTracker, ABagHiddenBySomeoneWhoseTrackIsNewKeepsItsId) {
+  const Mover bag{"bag", Vector3d(0.4, 0.2, 0.4), [](double) { return std::optional<Vector2d>(Vector2d(5.5, 0.0)); },
+                  std::nullopt};
+  const Mover q = person("q", [](double t) {
+    const double f = t * kRate;
+    return f >= 20 && f < 80 ? std::optional<Vector2d>(Vector2d(3.5, 0.0)) : std::nullopt;
+  });
+  const auto r = run_sequence(synthetic_camera(), {bag, q}, 110);
+  std::printf("[new occluder] %s\n", r.scorer.summary().c_str());
+  EXPECT_EQ(r.scorer.stats().at("bag").ids.size(), 1u);
+  EXPECT_EQ(r.scorer.stats().at("q").ids.size(), 1u);
+}
+
 TEST(PlanViewTracker, ATrackMeasuredForAFewFramesIsHeldStillWhileOccluded) {
   // o is seen for 7 frames moving sideways at 0.5 m/s (a thing being put down, a blob settling),
   // then is hidden behind p, who stands between it and the camera. Its velocity, from a few

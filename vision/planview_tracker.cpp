@@ -848,7 +848,11 @@ struct PlanViewTracker::Impl {
       t.x(2) *= decay;
       t.x(3) *= decay;
       // Lost in the open (a miss not occluded): missing until matched again, whatever passes.
-      t.hidden = t.confirmed && t.misses == 0 && (occluded(t) || merged(t));
+      // A bag (which does not walk) may still find its occluder within report_missed frames of
+      // its first miss: someone who steps in front of it as a new track (their old one lost
+      // behind something, or just arrived) is confirmed only min_hits frames after it hides it.
+      const bool may_hide = t.misses == 0 || (t.cls == TrackClass::kBag && t.misses <= p.report_missed);
+      t.hidden = t.confirmed && may_hide && (occluded(t) || merged(t));
       if (t.hidden)
         ++t.occluded;
       else
