@@ -167,19 +167,22 @@ TEST(Reid, NoTakeoverWhenItIsAmbiguousTooLateOrTheLostOneIsHere) {
     EXPECT_EQ(ids[79], (std::vector<int>{9}));
     EXPECT_EQ(r.reidentified(), 0);
   }
-  {
-    // Lost longer ago than the window.
-    ReidParams p;
-    p.window = 1.0;
+  // Tracker id 1 dressed in red on frames 0-19, tracker id 9 in red from frame 50: the ids on
+  // the last frame.
+  auto lost_and_new = [&](const ReidParams& p) {
     Reidentifier r(p);
-    const auto ids = run(r, 80, [&](int f) {
+    return run(r, 80, [&](int f) {
       std::vector<std::pair<int, Appearance>> v;
       if (f < 20) v.emplace_back(1, red);
       if (f >= 50) v.emplace_back(9, red);
       return v;
-    });
-    EXPECT_EQ(ids[79], (std::vector<int>{9}));
-  }
+    })[79];
+  };
+  EXPECT_EQ(lost_and_new({}), (std::vector<int>{1}));
+  // Lost longer ago than the window.
+  ReidParams short_window;
+  short_window.window = 1.0;
+  EXPECT_EQ(lost_and_new(short_window), (std::vector<int>{9}));
   {
     // Still here (tracked on the same frame): a new track dressed like her is somebody else.
     Reidentifier r;
@@ -205,14 +208,7 @@ TEST(Reid, NoTakeoverWhenItIsAmbiguousTooLateOrTheLostOneIsHere) {
   // Off: ids pass through.
   ReidParams off;
   off.enabled = false;
-  Reidentifier r(off);
-  const auto ids = run(r, 80, [&](int f) {
-    std::vector<std::pair<int, Appearance>> v;
-    if (f < 20) v.emplace_back(1, red);
-    if (f >= 50) v.emplace_back(9, red);
-    return v;
-  });
-  EXPECT_EQ(ids[79], (std::vector<int>{9}));
+  EXPECT_EQ(lost_and_new(off), (std::vector<int>{9}));
 }
 
 TEST(Reid, ATrackWhoseIdentityWasTakenGetsAnotherIfItComesBack) {
