@@ -693,6 +693,40 @@ TEST(Team, ATaskOfARobotThatFallsSilentIsReassignedWithinFiveSeconds) {
   fs::remove_all(second.dir);
 }
 
+// A keeper its mate stops hearing at 25 s, though it still hears the mate (as over DDS when one
+// process falls behind): the mate reopens the task; the keeper, on the reopen, lets the task go
+// and says why (not as a duplicate let go), and the mate takes it within 5 s.
+TEST(Team, AKeeperWhoseTaskIsReopenedLetsItGoAndSaysWhy) {
+  auto post = post_incident_at_20s;
+  TeamRun first = run_team("cyclic", 40, "mute_a", {}, false, post);
+  std::string keeper;
+  for (const std::string& l : file_lines(first.dir / "robots.jsonl")) {
+    auto j = nlohmann::json::parse(l);
+    if (keeper.empty() && j.value("event", "") == "task_assigned" && j["task_id"] == 42) keeper = j["robot"];
+  }
+  ASSERT_FALSE(keeper.empty());
+  const std::string other = keeper == "robot1" ? "robot2" : "robot1";
+  TeamBusOptions bus;
+  bus.silences.push_back({keeper, 25.0, 1e9, /*sends_only=*/true});
+  TeamRun second = run_team("cyclic", 40, "mute_b", bus, false, post);
+  std::vector<nlohmann::json> released;
+  double taken_by_other = -1;
+  for (const std::string& l : file_lines(second.dir / "robots.jsonl")) {
+    auto j = nlohmann::json::parse(l);
+    if (j.value("task_id", uint64_t{0}) != 42) continue;
+    if (j.value("event", "") == "task_released") released.push_back(j);
+    if (j.value("event", "") == "task_assigned" && j["robot"] == other && taken_by_other < 0) taken_by_other = j["t_ns"].get<int64_t>() * 1e-9;
+  }
+  ASSERT_EQ(released.size(), 1u) << test::slurp(second.dir / "robots.jsonl");
+  EXPECT_EQ(released[0]["robot"], keeper);
+  EXPECT_NE(released[0]["detail"].get<std::string>().find("reopened by " + other), std::string::npos) << released[0].dump();
+  EXPECT_GT(released[0]["t_ns"].get<int64_t>() * 1e-9, 25.0);
+  EXPECT_GT(taken_by_other, 25.0);
+  EXPECT_LE(taken_by_other, 30.0) << "reassigned within 5 s of the keeper falling silent to its mate";
+  fs::remove_all(first.dir);
+  fs::remove_all(second.dir);
+}
+
 // The same with a scripted breakdown (faults: in the scenario): the keeper stops at 25 s.
 TEST(Team, ATaskOfARobotThatBreaksDownIsReassignedWithinFiveSeconds) {
   auto post = post_incident_at_20s;

@@ -4,9 +4,9 @@ namespace vigil {
 
 LocalTeamBus::LocalTeamBus(TeamBusOptions options) : o_(std::move(options)), rng_(o_.seed ^ 0x7ea3b05ull) {}
 
-bool LocalTeamBus::silenced(const std::string& robot, double t) const {
+bool LocalTeamBus::silenced(const std::string& robot, double t, bool sending) const {
   for (const auto& s : o_.silences) {
-    if (s.robot == robot && t >= s.from && t < s.to) return true;
+    if (s.robot == robot && t >= s.from && t < s.to && (sending || !s.sends_only)) return true;
   }
   return false;
 }
@@ -26,7 +26,7 @@ void LocalTeamBus::exchange(World& world) {
     for (const std::string& t : to) {
       // Draw for every delivery so the random stream does not depend on which are silenced.
       const bool lost = o_.drop_probability > 0 && rng_.uniform() < o_.drop_probability;
-      if (lost || silenced(m.from, to_seconds(m.sent)) || silenced(t, to_seconds(m.sent))) {
+      if (lost || silenced(m.from, to_seconds(m.sent), true) || silenced(t, to_seconds(m.sent), false)) {
         ++dropped_;
         continue;
       }

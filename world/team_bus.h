@@ -2,7 +2,7 @@
 // controller sends in one step is delivered to its recipients (every other robot when `to` is
 // empty) after the bus's latency, at the earliest the next step. Faults for testing a protocol's
 // robustness: a seeded loss probability per delivery, and silences (a robot's messages, both
-// ways, lost between two times). Deterministic: the same run gives the same deliveries.
+// ways or only those it sends, lost between two times). Deterministic: the same run gives the same deliveries.
 // Between processes, DDS carries the same messages (plugins/dds_bridge).
 #pragma once
 
@@ -23,6 +23,7 @@ struct TeamBusOptions {
   struct Silence {
     std::string robot;
     double from = 0, to = 1e300;  // s
+    bool sends_only = false;      // it still hears the others (a mate that hears it late)
   };
   std::vector<Silence> silences;
 };
@@ -37,7 +38,7 @@ class LocalTeamBus {
   uint64_t dropped() const { return dropped_; }
 
  private:
-  bool silenced(const std::string& robot, double t) const;
+  bool silenced(const std::string& robot, double t, bool sending) const;
   TeamBusOptions o_;
   Rng rng_;
   struct Pending {

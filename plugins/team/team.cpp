@@ -211,7 +211,7 @@ class Team : public Plugin {
     now_ = world.time();
     knowledge_.now = to_seconds(now_);
     own_velocity_ = false;
-    for (const TeamMessage& m : cmd.take_messages()) receive(m);
+    for (const TeamMessage& m : cmd.take_messages()) receive(m, cmd);
     for (RobotTask& t : cmd.take_tasks()) {
       if (t.kind == "incident" || t.kind == "cancel_incident") {
         on_incident(t, cmd);
@@ -285,7 +285,7 @@ class Team : public Plugin {
  private:
   bool patrolling() const { return !responding_; }
 
-  void receive(const TeamMessage& m) {
+  void receive(const TeamMessage& m, ModelCommand& cmd) {
     if (m.kind == "token" || m.kind == "token_ack" || m.kind == "token_keep") {
       planning::allocation::TokenMessage t;
       t.kind = m.kind == "token" ? "token" : m.kind == "token_ack" ? "ack" : "keep";
@@ -316,7 +316,14 @@ class Team : public Plugin {
       return;
     }
     if (m.kind == "task_reopen") {
-      // The keeper fell silent: a new token for the task follows from the sender.
+      // The keeper fell silent: a new token for the task follows from the sender. If that keeper
+      // is me (the sender heard me too late), I let the task go and say why; the new token may
+      // bring it back.
+      if (task_.id == m.task) {
+        cmd.report(base_report("task_released", task_.kind + " " + std::to_string(task_.id) + ": reopened by " + m.from +
+                                                    " (it took " + m.text + " for silent)"));
+        back_to_patrol();
+      }
       tokens_->forget(m.task);
       handled_.erase(m.task);
       auto it = incidents_.find(m.task);
