@@ -83,6 +83,78 @@ TEST(ScenarioGen, UnknownFamilyOrSensorIsAnErrorNamingTheKey) {
   EXPECT_NE(c.out.find("family"), std::string::npos) << c.out;
 }
 
+// An exchange the generator once drew (seed 23): the owner puts her bag down and stands
+// between the corridor camera and it while another picks it up. No camera sees the bag, so the
+// dry run refuses the script; with the owner standing beyond the bag it passes.
+std::string exchange_script(double owner_stays_x) {
+  char b[2048];
+  std::snprintf(b, sizeof b, R"(name: hidden_exchange
+map: %s
+duration: 35
+seed: 23002
+physics_rate_hz: 100
+rules: {left_bag_distance: 3, left_bag_time: 5, exchange_distance: 1.5}
+cameras:
+  - id: cam_corridor
+    position: [25.87, 2.25, 2.47]
+    yaw_deg: 1.2
+    pitch_deg: 14.7
+    resolution: [640, 480]
+    hfov_deg: 60
+people:
+  - id: A
+    start: [36.63, 3.62]
+    speed: 1.23
+    height: 1.60
+    script:
+      - walk_to: [30.55, 3.45]
+      - put_down: bag1
+        to: [30.61, 3.85]
+      - walk_to: [%.2f, 3.57]
+      - walk_to: [%.2f, 3.57]
+        at: 13.97
+      - leave: [39.33, 3.17]
+  - id: B
+    start: [37.07, 3.50]
+    appear_at: 5.42
+    speed: 1.31
+    height: 1.66
+    script:
+      - walk_to: [30.94, 3.05]
+      - pick_up: bag1
+      - leave: [37.66, 2.59]
+objects:
+  - {id: bag1, kind: bag, carried_by: A, owner: A}
+)",
+                (test::source_dir() / "maps" / "dis_labs.floorplan.yaml").c_str(), owner_stays_x, owner_stays_x + 0.5);
+  return b;
+}
+
+TEST(ScenarioGen, TheDryRunRefusesAnEventWhoseBagNoCameraSees) {
+  const fs::path file = test::fresh_temp_dir("gen", "hidden") / "hidden_exchange.yaml";
+  auto hidden = parse_scenario(exchange_script(29.86), file);
+  ASSERT_TRUE(hidden.ok()) << hidden.error().str();
+  const Status s = check_generated_script(*hidden);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().kind, ErrorKind::kBadInput);
+  EXPECT_EQ(s.error().key, "objects");
+  EXPECT_NE(s.error().message.find("bag1 is seen"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("exchange"), std::string::npos) << s.error().message;
+  auto seen = parse_scenario(exchange_script(31.6), file);
+  ASSERT_TRUE(seen.ok()) << seen.error().str();
+  const Status ok = check_generated_script(*seen);
+  EXPECT_TRUE(ok) << ok.error().str();
+  // ... and it is still an exchange there.
+  WorldOptions wo;
+  wo.controllers = false;
+  auto world = World::create(*seen, wo);
+  ASSERT_TRUE(world.ok()) << world.error().str();
+  while (!(*world)->finished()) ASSERT_TRUE((*world)->advance());
+  ASSERT_EQ((*world)->events().size(), 1u);
+  EXPECT_EQ((*world)->events()[0].kind, "exchange");
+  fs::remove_all(file.parent_path());
+}
+
 TEST(ScenarioGen, CliWritesFilesThatValidate) {
   const fs::path out = test::fresh_temp_dir("gen", "cli");
   const Output g = vigil_cmd("gen left_bag lab_other --count 2 --seed 5 --out " + out.string(), false);

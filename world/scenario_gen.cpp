@@ -907,14 +907,74 @@ const std::vector<FamilyEntry>& families() {
   return f;
 }
 
-// Runs the scenario headless: ok when everyone has left by its end; bad input naming who did
-// not (stuck) otherwise.
-Status completes(const Scenario& scenario, const WorldOptions& options) {
+// True when the segment from the camera's centre to `p` (height pz) passes through a standing
+// person (an upright cylinder) before it reaches p: the point is hidden from that camera.
+bool hidden_by_people(const ViewCamera& c, double px, double py, double pz, const World& w) {
+  const double dx = px - c.x, dy = py - c.y, dd = dx * dx + dy * dy;
+  if (dd < 1e-9) return false;
+  for (const PersonEntity& q : w.people()) {
+    if (!q.present || q.gone) continue;
+    // The stretch of the segment (parameter t in [0, 1]) within the person's radius on the floor.
+    const double ox = c.x - q.pose.x, oy = c.y - q.pose.y, r = q.spec.radius;
+    const double b = 2 * (dx * ox + dy * oy), cc = ox * ox + oy * oy - r * r;
+    const double disc = b * b - 4 * dd * cc;
+    if (disc <= 0) continue;
+    const double t0 = (-b - std::sqrt(disc)) / (2 * dd), t1 = (-b + std::sqrt(disc)) / (2 * dd);
+    // Only what stands between the camera and the point (the point's own surroundings, within a
+    // few centimetres of it, do not hide it).
+    const double end = std::min(t1, 1.0 - 0.05 / std::sqrt(dd));
+    if (end <= std::max(t0, 0.0)) continue;
+    // The ray descends from the camera: it is lowest at the stretch's far end.
+    const double z_end = c.z + end * (pz - c.z);
+    if (z_end < q.spec.height) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Status check_generated_script(const Scenario& scenario, const WorldOptions& options) {
   WorldOptions wo = options;
   if (!wo.plugins) wo.controllers = false;
   auto world = World::create(scenario, wo);
   if (!world) return world.error();
   World& w = **world;
+  std::vector<ViewCamera> cams;
+  for (const CameraSpec& cs : scenario.cameras) {
+    ViewCamera c;
+    c.id = cs.id;
+    c.x = cs.position.x;
+    c.y = cs.position.y;
+    c.z = cs.position.z;
+    c.yaw = cs.yaw;
+    c.pitch = cs.pitch;
+    c.width = cs.width;
+    c.height = cs.height;
+    c.hfov = cs.fx ? 2 * std::atan(0.5 * cs.width / *cs.fx) : cs.hfov.value_or(deg(60));
+    c.min_range = 0;
+    c.max_range = 8.0;  // the ground-truth sensor's and the scoring's range
+    cams.push_back(c);
+  }
+  // Per object: (time, seconds seen so far) at each step.
+  std::vector<std::vector<std::pair<SimTime, double>>> seen(w.objects().size());
+  std::vector<double> seen_total(w.objects().size(), 0.0);
+  auto look = [&] {
+    const double dt = to_seconds(w.step_length());
+    for (size_t i = 0; i < w.objects().size(); ++i) {
+      const ObjectEntity& o = w.objects()[i];
+      if (o.present && o.carrier < 0) {
+        const double top = o.z + o.spec.size_z, mid = o.z + 0.5 * o.spec.size_z;
+        for (const ViewCamera& c : cams) {
+          if (!c.sees({o.pose.x, o.pose.y}, top, 4)) continue;
+          if (!hidden_by_people(c, o.pose.x, o.pose.y, top, w) && !hidden_by_people(c, o.pose.x, o.pose.y, mid, w)) {
+            seen_total[i] += dt;
+            break;
+          }
+        }
+      }
+      seen[i].push_back({w.time(), seen_total[i]});
+    }
+  };
   auto all_gone = [&] {
     for (const auto& p : w.people())
       if (!p.gone) return false;
@@ -922,15 +982,31 @@ Status completes(const Scenario& scenario, const WorldOptions& options) {
   };
   while (!w.finished() && !all_gone()) {
     if (Status s = w.advance(); !s) return s;
+    look();
   }
   std::string stuck;
   for (const auto& p : w.people())
     if (!p.gone) stuck += (stuck.empty() ? "" : ", ") + p.spec.id;
   if (!stuck.empty()) return bad_input(scenario.file.string(), 0, "people", "did not finish their scripts: " + stuck);
+  for (const GroundTruthEvent& e : w.events()) {
+    size_t i = 0;
+    while (i < w.objects().size() && w.objects()[i].spec.id != e.object) ++i;
+    if (i == w.objects().size()) continue;
+    const SimTime due = std::max(e.t, e.confirmed);
+    double before = 0;
+    for (const auto& [t, s] : seen[i]) {
+      if (t > due) break;
+      before = s;
+    }
+    if (before < kMinSeenBeforeEvent) {
+      char b[160];
+      std::snprintf(b, sizeof b, " is seen lying still, unhidden, for %.1f s before its %s is due (at least %.1f)", before,
+                    e.kind.c_str(), kMinSeenBeforeEvent);
+      return bad_input(scenario.file.string(), 0, "objects", e.object + b);
+    }
+  }
   return Status::Ok();
 }
-
-}  // namespace
 
 const std::vector<std::string>& scenario_families() {
   static const std::vector<std::string> names = [] {
@@ -974,7 +1050,7 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
     auto parsed = parse_scenario(g.text, o.out_dir / (g.name + ".yaml"));
     if (parsed) {
       if (!o.dry_run) return g;
-      Status s = completes(*parsed, o.world);
+      Status s = check_generated_script(*parsed, o.world);
       if (s) return g;
       if (s.error().kind != ErrorKind::kBadInput) return s.error();
       last_error = s.error().str();

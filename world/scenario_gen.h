@@ -44,6 +44,16 @@ struct GeneratedScenario {
   std::string summary;  // one line: what happens
 };
 
+// The dry run's checks on a drawn script, run to its end (no sensors; robots stand still unless
+// `options` gives a registry): every person finishes their script, and every event's object is
+// seen by a camera (in its image within 8 m, lying still, and hidden by nobody standing between:
+// people as upright cylinders) for at least kMinSeenBeforeEvent seconds before the event is due.
+// A bag no camera could see is no test of a camera system (before this check the generator made
+// an exchange with the owner standing between the camera and her bag throughout). Bad input,
+// naming the key (people, objects), when a check fails: the generator draws again.
+constexpr double kMinSeenBeforeEvent = 2.0;
+Status check_generated_script(const Scenario& scenario, const WorldOptions& options = {});
+
 // The families, in a fixed order.
 const std::vector<std::string>& scenario_families();
 // One-line description of a family ("" for an unknown name).
