@@ -389,6 +389,32 @@ TEST(ActivityRules, PersonWalkingPastAnUnattendedBagRaisesNothing) {
   EXPECT_EQ(events[0].kind, EventKind::kBagTaken);
 }
 
+TEST(ActivityRules, ABagLostWithNobodyNearAndFoundAgainAtItsPlaceIsTheSameBag) {
+  // A bag present from the start at (5, -0.45) is lost from 8 s to 16 s with nobody tracked near
+  // it (people the tracker also lost stand in front of it), so its model is forgotten; it is
+  // found again at its place under a new track id just as a passer-by walks by within 1 m. It is
+  // the bag that was there at the start, not hers: no left bag when she walks on.
+  Actor bag = bag_at_5(0.0, 60);
+  bag.seen = [](double t) { return t < 8 || t > 16; };
+  bag.track_id = [](double t) { return t < 8 ? 100 : 101; };
+  Actor passer{2, TrackClass::kPerson, Path{{{12, 0, 0.5}, {40, 33.6, 0.5}}}};
+  auto rules = make_rules();
+  const auto events = run(rules, 40, {bag, passer});
+  EXPECT_TRUE(events.empty()) << format_event_json(events.front());
+  ASSERT_EQ(rules.objects().size(), 1u);
+  EXPECT_TRUE(rules.objects()[0].at_start);
+  EXPECT_EQ(rules.objects()[0].owner, -1);
+  // Without the memory of forgotten models, the bag seen again is a new one and the passer-by,
+  // nearest as it appeared, its owner: a false left bag.
+  ActivityRuleParams p;
+  p.object_memory_time = 0;
+  auto forgetful = make_rules(p);
+  const auto wrong = run(forgetful, 40, {bag, passer});
+  ASSERT_EQ(wrong.size(), 1u);
+  EXPECT_EQ(wrong[0].kind, EventKind::kLeftBag);
+  EXPECT_EQ(wrong[0].people, std::vector<int>{2});
+}
+
 TEST(ActivityRules, TwoPeopleWalkingTogetherRaiseNothing) {
   auto rules = make_rules({}, corridor_camera());
   Actor a{1, TrackClass::kPerson, Path{{{0, 0, 0.3}, {10, 12, 0.3}}}};

@@ -26,7 +26,7 @@ namespace vigil::test {
 // 1, or 5 when this test is built with AddressSanitizer or ThreadSanitizer (tools/test.sh
 // --sanitize): the factor on a wall-clock lead given to other processes (an epoch a few seconds
 // ahead, by which they must all have started and found each other), as sanitized processes start
-// several times slower.
+// several times slower; and the divisor of a multi-process run's pace (its speed over real time).
 inline double slowdown() {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   return 5;

@@ -39,7 +39,7 @@ Status ActivityRuleParams::validate() const {
       {"occluder_radius", occluder_radius, true},      {"robot_radius", robot_radius, true},
       {"owner_window", owner_window, true},            {"person_confirm_time", person_confirm_time, true},
       {"carry_distance", carry_distance, false},       {"touch_still_speed", touch_still_speed, false},
-      {"hand_gap", hand_gap, true},
+      {"hand_gap", hand_gap, true},                    {"object_memory_time", object_memory_time, true},
   };
   for (const auto& c : checks) {
     if (!std::isfinite(c.value) || c.value < 0 || (!c.allow_zero && c.value == 0))
@@ -286,6 +286,20 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
       o.x = t->x;
       o.y = t->y;
       o.first_seen = now;
+      // On the place of a forgotten model, and not seen carried in: that bag, seen again.
+      const auto b = bag_tracks_.find(t->id);
+      if (b == bag_tracks_.end() || b->second.carrier < 0) {
+        auto f = std::min_element(forgotten_.begin(), forgotten_.end(), [&](const Forgotten& a, const Forgotten& c) {
+          return dist(t->x, t->y, a.x, a.y) < dist(t->x, t->y, c.x, c.y);
+        });
+        if (f != forgotten_.end() && dist(t->x, t->y, f->x, f->y) <= p_.object_match_distance) {
+          o.restored = true;
+          o.restored_owner = f->owner;
+          o.restored_at_start = f->at_start;
+          o.restored_left_event = f->left_event;
+          forgotten_.erase(f);
+        }
+      }
       objects_.push_back(o);
       used.push_back(false);
       best = static_cast<int>(objects_.size()) - 1;
@@ -366,6 +380,11 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
         o.confirmed = true;
         o.at_start = o.first_seen - first_stamp_ <= ns(p_.start_time);
         o.owner = o.at_start ? -1 : o.owner_candidate;
+        if (o.restored) {
+          o.at_start = o.restored_at_start;
+          o.owner = o.restored_owner;
+          o.left_event = o.restored_left_event;
+        }
       }
     }
   }
@@ -397,6 +416,7 @@ void ActivityRules::rule_left_bag(int64_t now, std::vector<Event>* out) {
 }
 
 void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out) {
+  std::erase_if(forgotten_, [&](const Forgotten& f) { return now - f.when > ns(p_.object_memory_time); });
   for (auto it = objects_.begin(); it != objects_.end();) {
     ObjectModel& o = *it;
     if (!o.confirmed || o.last_seen == now || in_handling_zone(o.x, o.y)) {
@@ -423,6 +443,7 @@ void ActivityRules::rule_taken(int64_t now, int64_t dt, std::vector<Event>* out)
       for (const auto& c : o.candidates) any = any || person(c.id, now);
       if (!any) {
         if (now - o.last_seen > 4 * ns(p_.person_lost_time) + ns(p_.object_gone_time)) {
+          if (p_.object_memory_time > 0) forgotten_.push_back({o.x, o.y, o.owner, o.at_start, o.left_event, now});
           it = objects_.erase(it);
         } else {
           ++it;

@@ -103,6 +103,12 @@ struct ActivityRuleParams {
                                      // a stopped robot lies farther out and is an object like any other
   double person_confirm_time = 0.3;  // s a person track must last before it can own, take or hide a bag
   double carry_distance = 0.8;       // m: a moving bag track this close to a person is carried by them
+  // s a confirmed model that vanished with nobody near (forgotten: its place looked empty, yet
+  // nobody could have taken it, e.g. while people the tracker lost stood in front of it) is
+  // remembered at its place: a bag seen there again within object_match_distance, and not seen
+  // carried in, is that bag (its owner, whether it was there at the start, its left-bag report),
+  // not a new one owned by whoever passes then. 0 = off
+  double object_memory_time = 300.0;
   std::vector<WatchedObject> watched;
   std::vector<HandlingZone> handling_zones;
   double zone_margin = 0.3;          // m around a zone that still counts as on it
@@ -167,6 +173,12 @@ class ActivityRules {
     int taker = -1;                // who moved off with it once gone, -1 = not known yet
     int carry_who = -1, carry_ticks = 0;  // who a moving bag is seen with, on how many ticks running
     double confidence = 0;         // mean confidence of its sightings
+    // A forgotten model this one was found on the place of (object_memory_time): what it takes
+    // over when it is confirmed.
+    bool restored = false;
+    int restored_owner = -1;
+    bool restored_at_start = false;
+    uint64_t restored_left_event = 0;
   };
   const std::vector<ObjectModel>& objects() const { return objects_; }
 
@@ -223,6 +235,14 @@ class ActivityRules {
   std::map<int, Person> people_;
   std::map<int, BagTrackStart> bag_tracks_;  // by bag track id
   std::vector<ObjectModel> objects_;
+  struct Forgotten {
+    double x = 0, y = 0;
+    int owner = -1;
+    bool at_start = false;
+    uint64_t left_event = 0;
+    int64_t when = 0;
+  };
+  std::vector<Forgotten> forgotten_;  // see object_memory_time
   std::map<std::pair<int, size_t>, Visit> visits_;  // (person, watched index)
   std::map<std::pair<int, uint64_t>, Visit> model_visits_;  // (person, object model key)
   uint64_t next_model_key_ = 1;
