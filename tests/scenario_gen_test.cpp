@@ -155,6 +155,56 @@ TEST(ScenarioGen, TheDryRunRefusesAnEventWhoseBagNoCameraSees) {
   fs::remove_all(file.parent_path());
 }
 
+// Another the generator once drew (seed 23): B waits beside the bag she put down, and A, walking
+// off, is wedged between them for 7 s (the simulator's people do not step round). Refused.
+TEST(ScenarioGen, TheDryRunRefusesAWalkerWedgedInPlace) {
+  char b[2048];
+  std::snprintf(b, sizeof b, R"(name: wedged
+map: %s
+duration: 38
+seed: 23002
+physics_rate_hz: 100
+cameras:
+  - {id: cam_corridor, position: [22.71, 3.95, 2.45], yaw_deg: -3.2, pitch_deg: 14.0, resolution: [640, 480], hfov_deg: 60}
+people:
+  - id: A
+    start: [22.94, 3.16]
+    speed: 1.28
+    height: 1.73
+    script:
+      - walk_to: [29.23, 2.54]
+      - put_down: bag1
+        to: [29.34, 2.89]
+      - leave: [21.67, 3.29]
+  - id: B
+    start: [23.17, 2.98]
+    appear_at: 2.49
+    speed: 1.19
+    height: 1.63
+    script:
+      - walk_to: [26.61, 3.08]
+      - put_down: bag2
+        to: [26.51, 3.49]
+      - walk_to: [26.62, 2.50]
+      - wait: 10.14
+      - pick_up: bag2
+      - leave: [19.72, 3.49]
+objects:
+  - {id: bag1, kind: bag, carried_by: A, owner: A}
+  - {id: bag2, kind: bag, carried_by: B, owner: B}
+)",
+                (test::source_dir() / "maps" / "dis_labs.floorplan.yaml").c_str());
+  const fs::path file = test::fresh_temp_dir("gen", "wedged") / "wedged.yaml";
+  auto sc = parse_scenario(b, file);
+  ASSERT_TRUE(sc.ok()) << sc.error().str();
+  const Status s = check_generated_script(*sc);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().kind, ErrorKind::kBadInput);
+  EXPECT_EQ(s.error().key, "people");
+  EXPECT_NE(s.error().message.find("A is held in place"), std::string::npos) << s.error().message;
+  fs::remove_all(file.parent_path());
+}
+
 TEST(ScenarioGen, CliWritesFilesThatValidate) {
   const fs::path out = test::fresh_temp_dir("gen", "cli");
   const Output g = vigil_cmd("gen left_bag lab_other --count 2 --seed 5 --out " + out.string(), false);

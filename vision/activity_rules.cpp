@@ -297,7 +297,8 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
           o.restored_owner = f->owner;
           o.restored_at_start = f->at_start;
           o.restored_left_event = f->left_event;
-          forgotten_.erase(f);
+          // Kept until the model is confirmed: a track too short to confirm one (noise, or the
+          // bag glimpsed between passers-by) does not use it up.
         }
       }
       objects_.push_back(o);
@@ -384,6 +385,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
           o.at_start = o.restored_at_start;
           o.owner = o.restored_owner;
           o.left_event = o.restored_left_event;
+          std::erase_if(forgotten_, [&](const Forgotten& f) { return dist(f.x, f.y, o.x, o.y) <= p_.object_match_distance; });
         }
       }
     }

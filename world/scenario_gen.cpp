@@ -980,9 +980,22 @@ Status check_generated_script(const Scenario& scenario, const WorldOptions& opti
       if (!p.gone) return false;
     return true;
   };
+  // How long each walker has been held in place (under a fifth of a metre a second).
+  std::vector<double> held(w.people().size(), 0.0);
   while (!w.finished() && !all_gone()) {
     if (Status s = w.advance(); !s) return s;
     look();
+    for (size_t i = 0; i < w.people().size(); ++i) {
+      const PersonEntity& p = w.people()[i];
+      const bool walking = p.present && !p.gone && p.phase == PersonEntity::Phase::kWalking;
+      held[i] = walking && std::hypot(p.velocity.x, p.velocity.y) < 0.2 ? held[i] + to_seconds(w.step_length()) : 0.0;
+      if (held[i] > kMaxHeldWhileWalking) {
+        char b[200];
+        std::snprintf(b, sizeof b, " is held in place for %.1f s while walking, at (%.2f, %.2f) at %.1f s (wedged: the simulator's people do not step round)",
+                      held[i], p.pose.x, p.pose.y, to_seconds(w.time()));
+        return bad_input(scenario.file.string(), 0, "people", p.spec.id + b);
+      }
+    }
   }
   std::string stuck;
   for (const auto& p : w.people())

@@ -45,13 +45,17 @@ struct GeneratedScenario {
 };
 
 // The dry run's checks on a drawn script, run to its end (no sensors; robots stand still unless
-// `options` gives a registry): every person finishes their script, and every event's object is
+// `options` gives a registry): every person finishes their script, nobody walking is held in
+// place for more than kMaxHeldWhileWalking seconds (wedged between people or things: a real
+// person would step round; the stuck window that ends a walk held off its last point by a thing
+// beside it is 2 s), and every event's object is
 // seen by a camera (in its image within 8 m, lying still, and hidden by nobody standing between:
 // people as upright cylinders) for at least kMinSeenBeforeEvent seconds before the event is due.
 // A bag no camera could see is no test of a camera system (before this check the generator made
 // an exchange with the owner standing between the camera and her bag throughout). Bad input,
 // naming the key (people, objects), when a check fails: the generator draws again.
 constexpr double kMinSeenBeforeEvent = 2.0;
+constexpr double kMaxHeldWhileWalking = 3.0;
 Status check_generated_script(const Scenario& scenario, const WorldOptions& options = {});
 
 // The families, in a fixed order.
