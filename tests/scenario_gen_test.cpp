@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "plugins/builtin.h"
 #include "tests/test_util.h"
@@ -83,6 +84,21 @@ TEST(ScenarioGen, UnknownFamilyOrSensorIsAnErrorNamingTheKey) {
   EXPECT_NE(c.out.find("family"), std::string::npos) << c.out;
 }
 
+// The dry run's verdict on a script written to a temporary file named `name`: refused as bad
+// input under `key`, its message holding each of `words`.
+void expect_dry_run_refuses(const std::string& text, const std::string& name, const std::string& key,
+                            const std::vector<std::string>& words) {
+  const fs::path file = test::fresh_temp_dir("gen", name) / (name + ".yaml");
+  auto sc = parse_scenario(text, file);
+  ASSERT_TRUE(sc.ok()) << sc.error().str();
+  const Status s = check_generated_script(*sc);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().kind, ErrorKind::kBadInput);
+  EXPECT_EQ(s.error().key, key);
+  for (const std::string& w : words) EXPECT_NE(s.error().message.find(w), std::string::npos) << s.error().message;
+  fs::remove_all(file.parent_path());
+}
+
 // An exchange the generator once drew (seed 23): the owner puts her bag down and stands
 // between the corridor camera and it while another picks it up. No camera sees the bag, so the
 // dry run refuses the script; with the owner standing beyond the bag it passes.
@@ -131,15 +147,8 @@ objects:
 }
 
 TEST(ScenarioGen, TheDryRunRefusesAnEventWhoseBagNoCameraSees) {
-  const fs::path file = test::fresh_temp_dir("gen", "hidden") / "hidden_exchange.yaml";
-  auto hidden = parse_scenario(exchange_script(29.86), file);
-  ASSERT_TRUE(hidden.ok()) << hidden.error().str();
-  const Status s = check_generated_script(*hidden);
-  ASSERT_FALSE(s);
-  EXPECT_EQ(s.error().kind, ErrorKind::kBadInput);
-  EXPECT_EQ(s.error().key, "objects");
-  EXPECT_NE(s.error().message.find("bag1 is seen"), std::string::npos) << s.error().message;
-  EXPECT_NE(s.error().message.find("exchange"), std::string::npos) << s.error().message;
+  expect_dry_run_refuses(exchange_script(29.86), "hidden_exchange", "objects", {"bag1 is seen", "exchange"});
+  const fs::path file = test::fresh_temp_dir("gen", "seen") / "seen_exchange.yaml";
   auto seen = parse_scenario(exchange_script(31.6), file);
   ASSERT_TRUE(seen.ok()) << seen.error().str();
   const Status ok = check_generated_script(*seen);
@@ -194,15 +203,7 @@ objects:
   - {id: bag2, kind: bag, carried_by: B, owner: B}
 )",
                 (test::source_dir() / "maps" / "dis_labs.floorplan.yaml").c_str());
-  const fs::path file = test::fresh_temp_dir("gen", "wedged") / "wedged.yaml";
-  auto sc = parse_scenario(b, file);
-  ASSERT_TRUE(sc.ok()) << sc.error().str();
-  const Status s = check_generated_script(*sc);
-  ASSERT_FALSE(s);
-  EXPECT_EQ(s.error().kind, ErrorKind::kBadInput);
-  EXPECT_EQ(s.error().key, "people");
-  EXPECT_NE(s.error().message.find("A is held in place"), std::string::npos) << s.error().message;
-  fs::remove_all(file.parent_path());
+  expect_dry_run_refuses(b, "wedged", "people", {"A is held in place"});
 }
 
 TEST(ScenarioGen, CliWritesFilesThatValidate) {
