@@ -10,6 +10,7 @@ PKGS=(
   cyclonedds-dev cyclonedds-tools
   liburdfdom-dev liburdfdom-headers-dev
   libosmesa6-dev libgl-dev mesa-common-dev
+  libavcodec-dev libavformat-dev libavutil-dev libswscale-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
   iproute2 nftables
