@@ -493,6 +493,12 @@ TEST(MserSystem, VigilTrackWritesMotChallengeBoxesFromAMonoVideo) {
   const auto no_scale = test::vigil_cmd("track --pipeline mser --scale 0 --source video:" + avi + " --out " + (dir / "s0").string());
   EXPECT_NE(no_scale.code, 0);
   EXPECT_NE(no_scale.out.find("--scale"), std::string::npos) << no_scale.out;
+  // A map places what the camera sees on the floor: a plain video has no pose to do that with.
+  const auto map = test::vigil_cmd("track --pipeline mser --map " + std::string(VIGIL_SOURCE_DIR) +
+                                   "/maps/dis_labs.floorplan.yaml --source video:" + avi + " --out " + (dir / "m").string());
+  EXPECT_EQ(map.code, 2) << map.out;
+  EXPECT_NE(map.out.find("--map"), std::string::npos) << map.out;
+  EXPECT_NE(map.out.find("calibrated source with a pose"), std::string::npos) << map.out;
   const auto bad = test::vigil_cmd("track --pipeline mser --source video:/nonexistent/walk.avi --out " + (dir / "bad").string());
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("/nonexistent/walk.avi"), std::string::npos) << bad.out;

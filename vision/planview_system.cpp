@@ -110,15 +110,7 @@ cv::Mat PlanViewSystem::depth_wanted(const StereoFrame& frame) {
 
 void PlanViewSystem::set_static_map(const OccupancyGrid& map) {
   static_map_ = map;
-  clearance_.release();
-  if (map.width() <= 0 || map.height() <= 0) return;
-  // Distance from the nearest cell that is not free (walls, furniture, unknown), in metres; row
-  // cy of the image is the grid's row cy (smallest y first).
-  cv::Mat free_cells(map.height(), map.width(), CV_8U);
-  for (int cy = 0; cy < map.height(); ++cy)
-    for (int cx = 0; cx < map.width(); ++cx) free_cells.at<uint8_t>(cy, cx) = map.at(cx, cy) == Cell::kFree ? 255 : 0;
-  cv::distanceTransform(free_cells, clearance_, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  clearance_ *= map.resolution();
+  clearance_ = map_clearance(map);
 }
 
 Status PlanViewSystem::find_start_objects(const cv::Mat& depth, cv::Mat* floor_depth) {

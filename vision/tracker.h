@@ -17,6 +17,11 @@
 
 namespace vigil::vision {
 
+// Each cell's distance (m) from the nearest cell of `map` that is not free (walls, furniture,
+// unknown): CV_32F, row cy the grid's row cy (smallest y first); empty for an empty map. What a
+// tracker given the building's map asks of a place: is it clear of everything the map holds?
+cv::Mat map_clearance(const OccupancyGrid& map);
+
 class Tracker {
  public:
   virtual ~Tracker() = default;

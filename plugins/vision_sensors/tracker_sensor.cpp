@@ -189,6 +189,9 @@ TrackerKind mser_kind() {
       {"min_object_area", ParamType::kNumber, d.system.min_object_area, 0, 1, "smallest object, a fraction of the image"},
       {"max_range", ParamType::kNumber, d.max_range, 0.5, 100, "m from the camera to an object's foot point"},
       {"lines", ParamType::kBool, true, 0, 0, "region growth may not cross Canny line segments"},
+      {"start_objects", ParamType::kBool, true, 0, 0,
+       "what stands on the floor in the map's free space while the background is learned is an object, not "
+       "background"},
   };
   k.make = [](const ParamSet& p, const SensorContext& ctx) -> Result<std::unique_ptr<vision::Tracker>> {
     vision::mser::MserTrackerParams tp;
@@ -199,6 +202,7 @@ TrackerKind mser_kind() {
     tp.system.min_object_area = p.number("min_object_area");
     tp.system.segmenter.use_lines = p.boolean("lines");
     tp.max_range = p.number("max_range");
+    tp.floor_start_objects = p.boolean("start_objects");
     for (const FloorplanFurniture& f : ctx.furniture)
       tp.surfaces.push_back({f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y, f.height});
     auto t = vision::mser::MserTracker::create(ctx.model, tp);

@@ -130,8 +130,8 @@ void add_track_command(CLI::App& app) {
   cmd->add_option("--frames", o->frames, "stop after this many frames (default: the whole source)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--camera-id", o->camera_id, "camera id written on the tracks (default: the source's camera or 'camera')");
   cmd->add_option("--map", o->map,
-                  "planview: the building's map (a .floorplan.yaml, map_server YAML or Stage worldfile) for a recorded "
-                  "source: the plan view then tracks what stands in its free space from the first frame (a rendered "
+                  "the building's map (a .floorplan.yaml, map_server YAML or Stage worldfile) for a calibrated recorded "
+                  "source: either system then tracks what stands in its free space from the first frame (a rendered "
                   "source uses its scenario's map)");
   cmd->add_option("--max-range", o->max_range, "plan view: metres from the camera (default 8)")->check(CLI::PositiveNumber);
   cmd->add_option("--cell-size", o->cell_size, "plan view: cell side in metres (default 0.02)")->check(CLI::PositiveNumber);
@@ -155,14 +155,16 @@ void add_track_command(CLI::App& app) {
     auto model = (*source)->camera_model();
     // Without a calibrated camera (a plain video or image folder) the MSER system tracks in the
     // image: MOTChallenge boxes.
+    if (!o->map.empty() && !model)
+      throw Exit{report(bad_input(o->source, 0, "--map",
+                                  "the building's map places what the camera sees, which needs a calibrated source with a "
+                                  "pose (render:, or stereo:LEFT,RIGHT,CALIBRATION)"))};
     if (o->pipeline == "mser" && !model) {
       run_mser(o->source, **source, o->out, o->frames, o->no_video, o->format, o->quiet, o->scale);
       return;
     }
     if (o->scale != 1.0)
       throw Exit{report(bad_input(o->source, 0, "--scale", "only the mser pipeline on a video: or images: source shrinks frames"))};
-    if (!o->map.empty() && o->pipeline != "planview")
-      throw Exit{report(bad_input(o->source, 0, "--map", "only the planview pipeline takes the building's map"))};
     if (o->pipeline == "planview" && (!(*source)->is_stereo() || !model)) {
       throw Exit{report(bad_input(o->source, 0, "--source",
                                   "the plan-view pipeline needs a calibrated stereo source with a pose (render:, or "
@@ -188,27 +190,6 @@ void add_track_command(CLI::App& app) {
       auto pv = vision::PlanViewSystem::create(*model, sp);
       if (!pv) throw Exit{report(pv.error())};
       system = std::make_unique<vision::PlanViewSystem>(std::move(*pv));
-      // The building, for what stands there from the first frame: the --map given, or a rendered
-      // source's own.
-      if (!o->map.empty()) {
-        const std::filesystem::path mp = o->map;
-        const std::string name = mp.filename().string();
-        Result<OccupancyGrid> grid = internal_error("");
-        if (name.ends_with(".floorplan.yaml")) {
-          auto plan = load_floorplan(mp);
-          grid = plan ? Result<OccupancyGrid>(plan->rasterize()) : Result<OccupancyGrid>(plan.error());
-        } else {
-          grid = load_map(mp);
-        }
-        if (!grid) {
-          Error e = grid.error();
-          if (e.key.empty()) e.key = "--map";
-          throw Exit{report(e)};
-        }
-        system->set_static_map(*grid);
-      } else if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) {
-        system->set_static_map(r->world().map());
-      }
     } else {
       vision::mser::MserTrackerParams tp;
       tp.camera = camera_id;
@@ -219,6 +200,27 @@ void add_track_command(CLI::App& app) {
       auto mt = vision::mser::MserTracker::create(*model, tp);
       if (!mt) throw Exit{report(mt.error())};
       system = std::make_unique<vision::mser::MserTracker>(std::move(*mt));
+    }
+    // The building, for what stands there from the first frame: the --map given, or a rendered
+    // source's own.
+    if (!o->map.empty()) {
+      const std::filesystem::path mp = o->map;
+      const std::string name = mp.filename().string();
+      Result<OccupancyGrid> grid = internal_error("");
+      if (name.ends_with(".floorplan.yaml")) {
+        auto plan = load_floorplan(mp);
+        grid = plan ? Result<OccupancyGrid>(plan->rasterize()) : Result<OccupancyGrid>(plan.error());
+      } else {
+        grid = load_map(mp);
+      }
+      if (!grid) {
+        Error e = grid.error();
+        if (e.key.empty()) e.key = "--map";
+        throw Exit{report(e)};
+      }
+      system->set_static_map(*grid);
+    } else if (auto* r = dynamic_cast<render::RenderedStereoSource*>(source->get())) {
+      system->set_static_map(r->world().map());
     }
 
     const std::filesystem::path out = o->out;

@@ -80,6 +80,8 @@ void MserSystem::reset() {
   moved_background_ = 0;
   reshaped_background_ = 0;
   model_image_.release();
+  uncovered_.release();
+  released_.clear();
   models_.clear();
   model_order_.clear();
   object_regions_.clear();
@@ -189,6 +191,43 @@ void MserSystem::learn() {
   }
 }
 
+bool MserSystem::colour_beside(const Region& reg) const {
+  // The model's colours around the region's box (half its size further on each side, at least
+  // 4 px), on pixels not released, every other pixel.
+  const int mx = std::max(4, reg.bbox.width / 2), my = std::max(4, reg.bbox.height / 2);
+  const cv::Rect around = cv::Rect(reg.bbox.x - mx, reg.bbox.y - my, reg.bbox.width + 2 * mx, reg.bbox.height + 2 * my) &
+                          cv::Rect(0, 0, model_image_.cols, model_image_.rows);
+  const double limit = p_.bg_colour * p_.bg_colour;
+  for (int y = around.y; y < around.br().y; y += 2) {
+    const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(y);
+    const uint8_t* u = uncovered_.ptr<uint8_t>(y);
+    for (int x = around.x; x < around.br().x; x += 2) {
+      if (u[x]) continue;
+      const cv::Vec3f d = mi[x] - reg.mean;
+      if (d.dot(d) <= limit) return true;
+    }
+  }
+  return false;
+}
+
+int MserSystem::release_from_background(const cv::Mat& mask) {
+  if (learning() || model_image_.empty() || mask.type() != CV_8UC1 || mask.size() != model_image_.size()) return -1;
+  int n = 0;
+  for (Entry& m : model_) {
+    const int x = static_cast<int>(std::lround(m.centroid.x)), y = static_cast<int>(std::lround(m.centroid.y));
+    if (x < 0 || y < 0 || x >= mask.cols || y >= mask.rows || !mask.at<uint8_t>(y, x)) continue;
+    m.gone = true;
+    released_.push_back(m);
+    ++n;
+  }
+  model_.erase(std::remove_if(model_.begin(), model_.end(), [](const Entry& m) { return m.gone; }), model_.end());
+  // No model colour there (zero: the sums of the model's colours under a region leave them out).
+  model_image_.setTo(cv::Scalar::all(0), mask);
+  if (uncovered_.empty()) uncovered_ = cv::Mat::zeros(mask.size(), CV_8U);
+  uncovered_.setTo(255, mask);
+  return n;
+}
+
 void MserSystem::classify() {
   const cv::Mat& lab = seg_out_.labels;
   fg_ = cv::Mat::zeros(lab.size(), CV_8U);
@@ -201,6 +240,15 @@ void MserSystem::classify() {
   // Per region: the model picture's mean colour under it (a background region whose shape
   // changed, cut by something passing in front, still has the model's colours under it).
   std::vector<cv::Vec3d> under(seg_out_.regions.size(), cv::Vec3d(0, 0, 0));
+  // Per region: its pixels on released ones (what a released thing uncovers).
+  std::vector<int> on_released;
+  if (!uncovered_.empty() && cv::countNonZero(uncovered_) > 0) {
+    on_released.assign(seg_out_.regions.size(), 0);
+    const int32_t* l = lab.ptr<int32_t>(0);
+    const uint8_t* u = uncovered_.ptr<uint8_t>(0);
+    for (size_t i = 0; i < lab.total(); ++i) on_released[l[i]] += u[i] != 0;
+  }
+  std::vector<int> uncovered_regions;
   {
     const int32_t* l = lab.ptr<int32_t>(0);
     const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
@@ -244,15 +292,31 @@ void MserSystem::classify() {
       continue;
     }
     if (reg.size < p_.tracking.min_size) continue;  // specks: neither
-    const cv::Vec3d u = under[r] / std::max(1, reg.size);
-    if (cv::norm(cv::Vec3d(reg.mean[0], reg.mean[1], reg.mean[2]) - u) <= p_.bg_colour) {
+    // The model's colours under it, where it has them (not on released pixels: those under at
+    // least half of it).
+    const int modelled = reg.size - (on_released.empty() ? 0 : on_released[r]);
+    const cv::Vec3d u = under[r] / std::max(1, modelled);
+    if (2 * modelled >= reg.size && cv::norm(cv::Vec3d(reg.mean[0], reg.mean[1], reg.mean[2]) - u) <= p_.bg_colour) {
       ++reshaped_background_;  // the model's colours under it: background, reshaped
+      // Reaching over released pixels, it shows what they uncovered: the scene's again.
+      if (modelled < reg.size) uncovered_regions.push_back(static_cast<int>(r));
       continue;
     }
     is_fg[r] = 1;
     if (t) {
       if (t->background) ++moved_background_;  // a background region that changed unexpectedly
       t->background = false;
+      // Uncovered by a released thing: mostly on its pixels, none of its regions (their entries
+      // as learned: place, size and colour), and of a colour the model has beside it (the floor
+      // or the wall that was behind it).
+      if (!on_released.empty() && 5 * on_released[r] >= 4 * reg.size && best_entry(released_, nullptr, reg) < 0 &&
+          colour_beside(reg)) {
+        absorb.push_back({reg.centroid, w, h, reg.mean, 1, 0.0});
+        uncovered_regions.push_back(static_cast<int>(r));
+        t->still_foreground = 0;
+        is_fg[r] = 0;
+        continue;
+      }
       // Still for long: taken into the model.
       if (++t->still_foreground >= p_.absorb_frames) {
         absorb.push_back({reg.centroid, w, h, reg.mean, 1, 0.0});
@@ -263,6 +327,16 @@ void MserSystem::classify() {
   model_.erase(std::remove_if(model_.begin(), model_.end(), [](const Entry& m) { return m.gone; }), model_.end());
   for (Entry& m : absorb) m.origin = m.centroid;
   model_.insert(model_.end(), absorb.begin(), absorb.end());
+  if (!uncovered_regions.empty()) {
+    // Those pixels are the scene's again, in the colours they now show.
+    std::vector<char> back(seg_out_.regions.size(), 0);
+    for (int r : uncovered_regions) back[r] = 1;
+    const int32_t* l = lab.ptr<int32_t>(0);
+    uint8_t* u = uncovered_.ptr<uint8_t>(0);
+    cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
+    for (size_t i = 0; i < lab.total(); ++i)
+      if (back[l[i]]) u[i] = 0, mi[i] = seg_out_.regions[l[i]].mean;
+  }
   const int32_t* l = lab.ptr<int32_t>(0);
   uint8_t* f = fg_.ptr<uint8_t>(0);
   const size_t n = lab.total();

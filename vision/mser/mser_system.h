@@ -115,6 +115,17 @@ class MserSystem {
     return out;
   }
   int moved_background() const { return moved_background_; }
+  // Things that were there while the model was learned and are not the scene (found by whoever
+  // knows its geometry, e.g. something standing on the floor in the map's free space): the
+  // entries whose centroids lie in `mask` (CV_8U, the image's size, non-zero on their pixels)
+  // leave the model and those pixels lose their model colour, so their regions are foreground
+  // from the next frame on. What they uncover when they move off is background: a foreground
+  // region mostly on those pixels that matches none of the released entries and has a colour the
+  // model has beside it (the floor or wall that was behind) is taken into the model at once, as
+  // is a region reaching over them with the model's colours under the rest of it. False after learning or with a mask of the
+  // wrong size or type. Returns how many entries left.
+  int release_from_background(const cv::Mat& mask);
+  const cv::Mat& released() const { return uncovered_; }
   // Regions matching no model entry but lying on the model's colours (a background region cut
   // by something in front): taken as background.
   int reshaped_background() const { return reshaped_background_; }
@@ -154,6 +165,8 @@ class MserSystem {
   void learn();
   void classify();
   int best_entry(const std::vector<Entry>& model, const class KdTree2* tree, const Region& reg) const;
+  // A colour the model has on unreleased pixels around the region's box.
+  bool colour_beside(const Region& reg) const;
   void update_objects();
   // Per box, the foreground regions of its component, as the object model sees them.
   std::vector<std::vector<ModelRegion>> box_regions(const cv::Mat& components, const std::vector<int>& box_of_component) const;
@@ -171,6 +184,8 @@ class MserSystem {
   int64_t frame_ = 0;
   int moved_background_ = 0, reshaped_background_ = 0;
   cv::Mat model_image_;  // CV_32FC3: the learned regions' mean colours, per pixel
+  cv::Mat uncovered_;    // CV_8U: released pixels not yet taken back into the model
+  std::vector<Entry> released_;  // entries released, as learned
   ObjectModels models_;  // ended objects
   std::vector<int64_t> model_order_;  // their ids, oldest first
   struct ObjectView {

@@ -35,16 +35,112 @@ void MserTracker::reset() {
   system_.reset();
   start_objects_.clear();
   start_found_ = false;
+  floor_start_.release();
   history_.clear();
   alias_.clear();
   id_offset_ = max_id_;
+}
+
+void MserTracker::set_static_map(const OccupancyGrid& map) {
+  map_ = map;
+  clearance_ = map_clearance(map);
+}
+
+cv::Mat MserTracker::find_floor_start_objects() {
+  const Segmentation& seg = system_.segmentation();
+  const cv::Mat& lab = seg.labels;
+  if (!p_.floor_start_objects || clearance_.empty() || lab.empty()) return {};
+  const Eigen::Vector3d c = camera_.pose().position;
+  auto clear_at = [&](double x, double y) {
+    int cx = 0, cy = 0;
+    return map_.world_to_cell({x, y}, &cx, &cy) && clearance_.at<float>(cy, cx) >= p_.floor_margin;
+  };
+  // 1. The floor's view, from rays through every other pixel (each stands for its 2x2 block), at
+  // any range: the upper body of someone 4 m away is seen against floor 10 m and more away.
+  constexpr double kFloorViewRange = 100.0;
+  cv::Mat floor_view = cv::Mat::zeros(lab.size(), CV_8U);
+  for (int v = 0; v < lab.rows; v += 2)
+    for (int u = 0; u < lab.cols; u += 2) {
+      const Eigen::Vector3d dir = camera_.back_project_map(u + 0.5, v + 0.5, 1.0) - c;
+      if (!(dir.z() < -1e-9)) continue;
+      const double t = -c.z() / dir.z();
+      const double dist = t * std::hypot(dir.x(), dir.y());
+      if (dist > kFloorViewRange || !clear_at(c.x() + t * dir.x(), c.y() + t * dir.y())) continue;
+      double ts = 0;
+      if (first_surface(c, dir, p_.surface_margin, &ts) >= 0) continue;
+      if (map_.raycast({c.x(), c.y()}, std::atan2(dir.y(), dir.x()), dist + 1e-3) < dist) continue;  // a wall first
+      floor_view(cv::Rect(u, v, std::min(2, lab.cols - u), std::min(2, lab.rows - v))).setTo(255);
+    }
+  // 2. Each region's pixels on it.
+  const size_t nr = seg.regions.size();
+  std::vector<int> on_floor(nr, 0);
+  for (int y = 0; y < lab.rows; ++y) {
+    const int32_t* l = lab.ptr<int32_t>(y);
+    const uint8_t* f = floor_view.ptr<uint8_t>(y);
+    for (int x = 0; x < lab.cols; ++x) on_floor[l[x]] += f[x] != 0;
+  }
+  double floor_total = 0;
+  for (int n : on_floor) floor_total += n;
+  if (floor_total <= 0) return {};
+  // 3. The floor's colours: those that regions covering a share of its view have. The parts of
+  // things on it: regions mostly on the floor's view, of none of them.
+  std::vector<int> parts;
+  for (size_t r = 0; r < nr; ++r) {
+    const Region& reg = seg.regions[r];
+    if (reg.size < p_.system.segmenter.min_size || 2 * on_floor[r] < reg.size) continue;
+    double same = 0;
+    int repeats = 0;
+    for (size_t s = 0; s < nr; ++s)
+      if (on_floor[s] > 0 && cv::norm(seg.regions[s].mean - reg.mean) <= p_.system.bg_colour) {
+        same += on_floor[s];
+        repeats += on_floor[s] >= p_.system.segmenter.min_size;
+      }
+    // The floor's colour: one that covers a share of its view (a plain floor), or that comes
+    // back in many places over it (a pattern: tiles).
+    if (repeats >= p_.floor_colour_repeats && same >= 0.1 * p_.floor_colour_share * floor_total) continue;
+    if (same < p_.floor_colour_share * floor_total) parts.push_back(static_cast<int>(r));
+  }
+  if (parts.empty()) return {};
+  // 4. Parts that touch are one thing: components of their pixels, joined across start_touch_px.
+  cv::Mat part_mask = cv::Mat::zeros(lab.size(), CV_8U);
+  {
+    std::vector<char> is_part(nr, 0);
+    for (int r : parts) is_part[r] = 1;
+    for (int y = 0; y < lab.rows; ++y) {
+      const int32_t* l = lab.ptr<int32_t>(y);
+      uint8_t* m = part_mask.ptr<uint8_t>(y);
+      for (int x = 0; x < lab.cols; ++x) m[x] = is_part[l[x]] ? 255 : 0;
+    }
+  }
+  cv::Mat joined, cc, stats, centroids;
+  const int g = std::max(1, p_.start_touch_px);
+  cv::morphologyEx(part_mask, joined, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {2 * g + 1, 2 * g + 1}));
+  const int n = cv::connectedComponentsWithStats(joined, cc, stats, centroids, 8, CV_32S);
+  // 5. Each thing: standing on the floor clear of the map, tall and wide enough, of an object's size.
+  cv::Mat released = cv::Mat::zeros(lab.size(), CV_8U);
+  const double min_area = p_.system.min_object_area * static_cast<double>(lab.total());
+  for (int i = 1; i < n; ++i) {
+    if (stats.at<int>(i, cv::CC_STAT_AREA) < min_area) continue;
+    const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP), stats.at<int>(i, cv::CC_STAT_WIDTH),
+                       stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    Placement pl;
+    if (!place(box, &pl) || pl.surface >= 0 || !clear_at(pl.x, pl.y)) continue;
+    if (pl.own_height < p_.floor_min_height || pl.width < p_.start_min_width) continue;
+    released.setTo(255, (cc == i) & part_mask);
+  }
+  if (cv::countNonZero(released) == 0) return {};
+  system_.release_from_background(released);
+  return released;
 }
 
 bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
-  if (!(p_.cut_person_height > 0) || box.y <= 0 || box.height < p_.cut_min_aspect * box.width) return false;
+  // Cut off by a side of the image as well, the box's width is only part of the object's, so
+  // its shape says nothing: the aspect is not asked.
+  const bool side_cut = box.x <= 0 || box.x + box.width >= k.width;
+  if (!(p_.cut_person_height > 0) || box.y <= 0 || (!side_cut && box.height < p_.cut_min_aspect * box.width)) return false;
   const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
   const double dz = p_.cut_person_height - c.z();
   if (std::abs(top_dir.z()) < 1e-9 || dz / top_dir.z() <= 0) return false;
@@ -95,7 +191,26 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   // The feet cut off by the image's edge: a tall box with its top in view is taken for a
   // person of `cut_person_height`, the ray through the top meeting that height above the
   // footprint's centre.
-  if (box.y + box.height >= k.height) return place_by_head(box, out);
+  if (box.y + box.height >= k.height) {
+    if (!place_by_head(box, out)) return false;
+    // The feet below the image: the footprint's near side is nearer than where the bottom row's
+    // ray meets the floor (unless a table top is in the way), so its centre is at most half a
+    // footprint beyond. A box whose top is too high (a bit of wall above the head taken in)
+    // would otherwise put the person metres behind where the bottom edge allows.
+    const Eigen::Vector3d bottom_dir = camera_.back_project_map(u, k.height - 0.5, 1.0) - c;
+    double tb = 0;
+    if (bottom_dir.z() < -1e-9 && first_surface(c, bottom_dir, 0.0, &tb) < 0) {
+      const double limit = tb * std::hypot(bottom_dir.x(), bottom_dir.y()) + 0.5 * p_.max_footprint;
+      const double dist = std::hypot(out->x - c.x(), out->y - c.y());
+      if (dist > limit) {
+        const double s = limit / dist;
+        out->x = c.x() + s * (out->x - c.x());
+        out->y = c.y() + s * (out->y - c.y());
+        out->width *= s;
+      }
+    }
+    return true;
+  }
   const double v_bottom = box.y + box.height - 0.5;
   const Eigen::Vector3d foot_dir = camera_.back_project_map(u, v_bottom, 1.0) - c;
   if (!(foot_dir.z() < -1e-9)) return false;  // at or above the horizon
@@ -380,6 +495,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   // The objects present at the start, found once the background is learned.
   if (!system_.learning() && !start_found_) {
     find_start_objects(frame.left);
+    floor_start_ = find_floor_start_objects();
     start_found_ = true;
   }
   std::set<int64_t> handled;  // things a hand is seen on this frame

@@ -59,6 +59,21 @@ struct MserTrackerParams {
   // parts closer than start_merge (m) one object.
   double start_min_width = 0.1;
   double start_merge = 0.35;
+  // Given the building's map (set_static_map): things standing on the floor while the
+  // background was learned. The floor's view is the pixels whose ray meets the floor in free
+  // space, at least `floor_margin` (m) from anything the map holds, before any wall. There, regions whose colour is not the floor's (regions within bg_colour of it
+  // cover less than `floor_colour_share` of the floor's view, or a tenth of that in fewer than
+  // `floor_colour_repeats` places: a pattern's colours come back all over it), joined when they touch, whose
+  // box stands on the floor clear of the map by floor_margin, at least `floor_min_height` (m)
+  // tall (not a mark on the floor) and start_min_width wide, are not the scene: they leave the
+  // background model (MserSystem::release_from_background) and are tracked like anything else.
+  // What of them is seen against a wall rather than the floor (the head of someone standing near
+  // the corridor's end) stays background.
+  bool floor_start_objects = true;
+  double floor_margin = 0.3;
+  double floor_colour_share = 0.2;
+  int floor_colour_repeats = 6;
+  double floor_min_height = 0.15;
   int start_touch_px = 2;  // ...and parts whose pixels come this close in the image
   // Hands (Track::hand_on): an object present at the start is handled by the object whose box
   // holds most of its pixels that are foreground and changed colour from how it looked when
@@ -98,6 +113,7 @@ class MserTracker : public Tracker {
   bool sees_hands() const override { return true; }
   Result<std::vector<Track>> process(const StereoFrame& frame) override;
   void reset() override;
+  void set_static_map(const OccupancyGrid& map) override;
   cv::Mat annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const override;
 
   const MserSystem& system() const { return system_; }
@@ -147,6 +163,9 @@ class MserTracker : public Tracker {
   // outline, and its t (-1 and the floor's t when none).
   int first_surface(const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double margin, double* t) const;
   void find_start_objects(const cv::Mat& bgr);
+  // Things standing on the floor when the model was learned (see floor_start_objects): their
+  // pixels (CV_8U), released from the background model. Empty without a map.
+  cv::Mat find_floor_start_objects();
   struct StartObject {
     int index = 0;
     Placement place;
@@ -158,6 +177,9 @@ class MserTracker : public Tracker {
   std::map<int64_t, int64_t> hands_on_objects(const cv::Mat& bgr, std::set<int64_t>* handled) const;
   std::vector<StartObject> start_objects_;
   bool start_found_ = false;
+  OccupancyGrid map_;
+  cv::Mat clearance_;    // map_clearance(map_); empty: no map given
+  cv::Mat floor_start_;  // the pixels released as things on the floor at the start
   StereoCameraModel camera_;
   MserTrackerParams p_;
   MserSystem system_;
