@@ -122,7 +122,9 @@ TEST(MserTracker, TracksAWalkerAsOnePersonWhereTheyWalk) {
       EXPECT_NEAR(t.x, x, 0.3) << "frame " << k;  // a pixel of the foot row is 8 cm at 7 m
       EXPECT_NEAR(t.y, y, 0.3) << "frame " << k;
       EXPECT_EQ(t.cls, TrackClass::kPerson) << "frame " << k << " height " << t.height;
-      if (k > 35) EXPECT_NEAR(t.vx, -1.05, 0.35) << "frame " << k;
+      if (k > 35) {
+        EXPECT_NEAR(t.vx, -1.05, 0.35) << "frame " << k;
+      }
     }
     if (k == 59) {
       const cv::Mat a = tracker->annotate(f, *tracks);
@@ -428,7 +430,9 @@ TEST(MserTracker, ThingsOnTheFloorFromTheFirstFrameAreTrackedGivenTheMapAndLeave
         } else if (std::hypot(t.x - px, t.y + 0.5) < 0.35) {
           // Setting off, her still shirt and moving legs may be split for a moment (the system's
           // still-and-moving split, docs/MSER.md), whatever the map.
-          if (k < 60 || k >= 70) EXPECT_EQ(t.cls, TrackClass::kPerson) << "frame " << k << " height " << t.height;
+          if (k < 60 || k >= 70) {
+            EXPECT_EQ(t.cls, TrackClass::kPerson) << "frame " << k << " height " << t.height;
+          }
           ++person_seen;
         } else if (k >= 60 && k < 70) {
           ++setting_off;
@@ -447,6 +451,74 @@ TEST(MserTracker, ThingsOnTheFloorFromTheFirstFrameAreTrackedGivenTheMapAndLeave
       EXPECT_GT(cv::countNonZero(made->system().released()), 0);
     }
   }
+}
+
+// Someone walks up behind a bag lying on the floor and stands there (the bag in front, their
+// blobs one), then takes it and walks off. The bag is held where it lies while covered, and
+// ends as soon as the floor shows where it lay; the person keeps one track throughout, placed
+// behind the bag by the head at the height measured while the feet were in view, not where the
+// merged blob's bottom (the bag's) would put them.
+TEST(MserTracker, SomeoneStandingBehindABagIsPlacedByTheHeadAndTheBagHeldUntilTaken) {
+  const StereoCameraModel cam = corridor_camera();
+  auto made = MserTracker::create(cam);
+  ASSERT_TRUE(made.ok());
+  Feeder feed{&*made};
+  const cv::Mat floor = frame_with_walker(cam, 0, 0, false);
+  int64_t bag_id = -1;
+  std::set<int64_t> person_ids;
+  int bag_last = -1, merged_frames = 0, others = 0;
+  for (int k = 0; k < 110; ++k) {
+    // Her feet 0.4 m behind the bag are hidden by it: the merged blob's bottom is the bag's.
+    const double px = k < 30 ? 9.0 : k < 75 ? 9.0 - 0.08 * (k - 30) : k < 95 ? 5.4 : 5.4 + 0.08 * (k - 95);
+    cv::Mat img = floor.clone();
+    if (k >= 30) draw_figure(img, cam, px, 0.6, 0.25, 1.75, cv::Scalar(40, 40, 200), cv::Scalar(120, 40, 30));
+    if (k >= 25 && k < 95) draw_figure(img, cam, 5.0, 0.6, 0.15, 0.45, cv::Scalar(60, 160, 60), cv::Scalar(60, 160, 60));
+    for (const Track& t : feed(img)) {
+      if (t.cls == TrackClass::kBag && std::hypot(t.x - 5.0, t.y - 0.6) < 0.2) {
+        if (bag_id < 0) bag_id = t.id;
+        EXPECT_EQ(t.id, bag_id) << "frame " << k;
+        bag_last = k;
+      } else if (t.cls == TrackClass::kPerson && std::hypot(t.x - px, t.y - 0.6) < 0.4) {
+        person_ids.insert(t.id);
+        merged_frames += k >= 77 && k < 95;
+      } else {
+        // Setting off again, her still shirt and moving legs may be split for a moment (as in
+        // ThingsOnTheFloorFromTheFirstFrame...).
+        EXPECT_TRUE(k >= 95 && k < 105) << "frame " << k << ": track at " << t.x << ", " << t.y;
+        ++others;
+      }
+    }
+  }
+  ASSERT_GE(bag_id, 0) << "the bag is tracked";
+  EXPECT_GE(bag_last, 94) << "held while she stands over it";
+  EXPECT_LE(bag_last, 99) << "gone once the floor shows where it lay";
+  EXPECT_GE(merged_frames, 16) << "she is reported where she stands while her blob and the bag's are one";
+  EXPECT_EQ(person_ids.size(), 1u) << "one person track, before, while and after she stands behind it";
+  EXPECT_LE(others, 5);
+}
+
+// A tall walker (1.9 m) coming towards the camera until the feet leave the image: placed by the
+// head at the height measured while the feet were in view, not at cut_person_height (1.7 m),
+// which would put her a fifth further than she is.
+TEST(MserTracker, APersonWhoseFeetLeaveTheImageIsPlacedByTheHeightMeasuredBefore) {
+  const StereoCameraModel cam = corridor_camera();
+  auto made = MserTracker::create(cam);
+  ASSERT_TRUE(made.ok());
+  Feeder feed{&*made};
+  const cv::Mat floor = frame_with_walker(cam, 0, 0, false);
+  int cut_frames = 0;
+  for (int k = 0; k < 100; ++k) {
+    const double px = 7.5 - 0.07 * std::max(0, k - 25);
+    cv::Mat img = floor.clone();
+    if (k >= 25) draw_figure(img, cam, px, -0.3, 0.25, 1.9, cv::Scalar(40, 40, 200), cv::Scalar(120, 40, 30));
+    const bool cut = cylinder_box(cam, px, -0.3, 0.25, 1.9).br().y >= 240;
+    for (const Track& t : feed(img)) {
+      if (!cut || k < 30) continue;
+      ++cut_frames;
+      EXPECT_NEAR(t.x, px, 0.25) << "frame " << k << ", feet out of view";
+    }
+  }
+  EXPECT_GE(cut_frames, 5) << "the test needs frames with the feet out of view";
 }
 
 // Feet cut off by the image's bottom edge, a box whose top was taken too high (a bit of wall

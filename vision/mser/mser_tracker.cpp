@@ -133,16 +133,17 @@ cv::Mat MserTracker::find_floor_start_objects() {
   return released;
 }
 
-bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
+bool MserTracker::place_by_head(const cv::Rect& box, Placement* out, double stature) const {
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
   // Cut off by a side of the image as well, the box's width is only part of the object's, so
   // its shape says nothing: the aspect is not asked.
   const bool side_cut = box.x <= 0 || box.x + box.width >= k.width;
-  if (!(p_.cut_person_height > 0) || box.y <= 0 || (!side_cut && box.height < p_.cut_min_aspect * box.width)) return false;
+  const double tall = stature > 0 ? stature : p_.cut_person_height;
+  if (!(tall > 0) || box.y <= 0 || (!side_cut && box.height < p_.cut_min_aspect * box.width)) return false;
   const Eigen::Vector3d top_dir = camera_.back_project_map(u, box.y - 0.5, 1.0) - c;
-  const double dz = p_.cut_person_height - c.z();
+  const double dz = tall - c.z();
   if (std::abs(top_dir.z()) < 1e-9 || dz / top_dir.z() <= 0) return false;
   const Eigen::Vector3d head = c + (dz / top_dir.z()) * top_dir;
   const double dist = std::hypot(head.x() - c.x(), head.y() - c.y());
@@ -152,8 +153,8 @@ bool MserTracker::place_by_head(const cv::Rect& box, Placement* out) const {
   out->x = head.x();
   out->y = head.y();
   out->width = box.width * depth / k.fx;
-  out->height = p_.cut_person_height;
-  out->own_height = p_.cut_person_height;
+  out->height = tall;
+  out->own_height = tall;
   out->support = 0;
   out->surface = -1;
   out->by_head = true;
@@ -184,7 +185,7 @@ double far_edge(const Surface& s, const Eigen::Vector2d& from, const Eigen::Vect
 
 }  // namespace
 
-bool MserTracker::place(const cv::Rect& box, Placement* out) const {
+bool MserTracker::place(const cv::Rect& box, Placement* out, double stature) const {
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
@@ -192,7 +193,7 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   // person of `cut_person_height`, the ray through the top meeting that height above the
   // footprint's centre.
   if (box.y + box.height >= k.height) {
-    if (!place_by_head(box, out)) return false;
+    if (!place_by_head(box, out, stature)) return false;
     // The feet below the image: the footprint's near side is nearer than where the bottom row's
     // ray meets the floor (unless a table top is in the way), so its centre is at most half a
     // footprint beyond. A box whose top is too high (a bit of wall above the head taken in)
@@ -260,7 +261,7 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
   }
   if (behind_surface) {
     Placement head;
-    if (place_by_head(box, &head) &&
+    if (place_by_head(box, &head, stature) &&
         (hidden_by < 0 || std::hypot(head.x - c.x(), head.y - c.y()) >=
                               far_edge(p_.surfaces[hidden_by], Eigen::Vector2d(c.x(), c.y()), along))) {
       *out = head;
@@ -279,7 +280,7 @@ bool MserTracker::place(const cv::Rect& box, Placement* out) const {
     out->x = at.x();
     out->y = at.y();
     out->width = w_at;
-    out->height = out->own_height = p_.cut_person_height;
+    out->height = out->own_height = stature > 0 ? stature : p_.cut_person_height;
     out->support = 0;
     out->surface = -1;
     out->by_head = true;
@@ -518,10 +519,17 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     return &out.back();
   };
   std::map<int64_t, History> next;
+  // The tracks this frame's objects continue as things stand (before any new alias).
+  std::set<int64_t> claimed;
+  for (const ImageObject& o : system_.objects()) {
+    const int64_t sid = o.id + id_offset_;
+    const auto al = alias_.find(sid);
+    claimed.insert(al != alias_.end() ? al->second : sid);
+  }
   for (const ImageObject& o : system_.objects()) {
     Placement pl;
     if (!place(o.box, &pl)) continue;
-    const double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
+    double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     const int64_t sys_id = o.id + id_offset_;
     max_id_ = std::max(max_id_, sys_id);
     // A new object where a bag lies (held, or still seen: the bag's image split in two) is that
@@ -535,6 +543,23 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
         }
       }
     }
+    // A new object where a person was lost a moment ago (their blob changed so much the system
+    // began another: a bag taken from it, a merge undone) continues them.
+    if (!history_.count(sys_id) && !alias_.count(sys_id)) {
+      int64_t who = -1;
+      double best_d = p_.merge_reach;
+      for (const auto& [pid, ph] : history_) {
+        if (ph.cls != TrackClass::kPerson || claimed.count(pid)) continue;
+        const double unseen = (frame.stamp_ns - ph.stamp_ns) * 1e-9;
+        if (unseen > p_.resume_time) continue;
+        const double d = std::hypot(ph.x - x, ph.y - y);
+        if (d < best_d + p_.max_speed * unseen) best_d = d, who = pid;
+      }
+      if (who >= 0) {
+        alias_[sys_id] = who;
+        claimed.insert(who);
+      }
+    }
     auto al = alias_.find(sys_id);
     // The alias lasts while the object stays at the bag's place (not a walker who stood by it).
     if (al != alias_.end()) {
@@ -544,10 +569,55 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
         al = alias_.end();
       }
     }
-    const int64_t id = al != alias_.end() ? al->second : sys_id;
+    int64_t id = al != alias_.end() ? al->second : sys_id;
+    // A still bag whose object grows person-sized: someone reached it and their blobs merged
+    // (the system kept the bag's object). The bag is held where it lay (not measured: covered);
+    // the merged object is that someone, the person track last seen nearby, else a new track.
+    if (const auto b = history_.find(id); b != history_.end() && b->second.cls == TrackClass::kBag &&
+                                          b->second.frames >= p_.hold_min_frames &&
+                                          std::hypot(b->second.vx, b->second.vy) <= p_.hold_speed &&
+                                          (pl.by_head || h >= p_.classes.person_min_height)) {
+      int64_t who = -1;
+      double best_d = p_.merge_reach;
+      for (const auto& [pid, ph] : history_) {
+        if (ph.cls != TrackClass::kPerson || next.count(pid)) continue;
+        const double unseen = (frame.stamp_ns - ph.stamp_ns) * 1e-9;
+        if (unseen > p_.hold_time) continue;
+        const double d = std::hypot(ph.x - x, ph.y - y);
+        if (d < best_d + p_.max_speed * unseen) best_d = d, who = pid;
+      }
+      id = who >= 0 ? who : kMergedIds + ++merged_ids_;
+      alias_[sys_id] = id;
+    }
+    // A person-sized box whose bottom is a still bag's (someone behind the bag, reaching over it,
+    // their blobs merged): they stand where their head puts them, if that is beyond the bag.
+    if (!pl.by_head && h >= p_.classes.person_min_height) {
+      const Eigen::Vector3d c = camera_.pose().position;
+      for (const auto& [bid, bh] : history_) {
+        if (bh.cls != TrackClass::kBag || bh.frames < p_.hold_min_frames || std::hypot(bh.vx, bh.vy) > p_.hold_speed) continue;
+        const cv::Rect& bb = bh.box;
+        if (std::abs(o.box.br().y - bb.br().y) > std::max(2, bb.height / 8) || bb.x < o.box.x - 2 || bb.br().x > o.box.br().x + 2) continue;
+        Placement head;
+        const auto me = history_.find(id);
+        if (place_by_head(o.box, &head, me != history_.end() ? me->second.stature : -1) && std::hypot(head.x - c.x(), head.y - c.y()) > std::hypot(bh.x - c.x(), bh.y - c.y())) {
+          pl = head;
+          x = pl.x, y = pl.y, w = pl.width, h = pl.height;
+        }
+        break;
+      }
+    }
     if (next.count(id)) continue;  // two objects claiming one held bag: the first keeps it
     History hist;
     if (auto it = history_.find(id); it != history_.end()) hist = it->second;
+    // Placed by the head: by the person's own height once measured (at 7 m, 5 cm of height is
+    // 0.4 m of distance).
+    if (pl.by_head && hist.stature > 0 && std::abs(pl.height - hist.stature) > 1e-9) {
+      Placement again;
+      if (place(o.box, &again, hist.stature) && again.by_head) {
+        pl = again;
+        x = pl.x, y = pl.y, w = pl.width, h = pl.height;
+      }
+    }
     // Velocity: the footprint's displacement over the last `velocity_window` seconds (a pixel
     // of the foot row is several centimetres, so frame-to-frame differences are mostly noise).
     // A person's jump no one walks (the box's bottom now another part of the blob: a table's
@@ -590,6 +660,17 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     } else if (hist.cls != TrackClass::kBag || speed > p_.hold_speed) {
       hist.picture = Picture{};  // carried or moving: no longer lying where it was seen
     }
+    // A person's height, from frames with the feet on the floor and the head in view.
+    if (!pl.by_head && pl.support == 0 && o.box.y > 0 && hist.cls == TrackClass::kPerson &&
+        h >= p_.classes.person_min_height && h <= p_.classes.person_max_height)
+    {
+      // The median of the last measurements (an arm raised or a carried bag lifts a few).
+      hist.statures.push_back(h);
+      if (hist.statures.size() > 31) hist.statures.pop_front();
+      std::vector<double> v(hist.statures.begin(), hist.statures.end());
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      hist.stature = v[v.size() / 2];
+    }
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;
@@ -622,6 +703,12 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     // place means it has gone.
     bool covered = false;
     for (const ImageObject& o : system_.objects()) covered = covered || (o.box & hist.box).area() > 0;
+    // With a picture of it lying there: its pixels still foreground (itself, or someone in
+    // front); once they are background again the floor shows where it lay, and it has gone.
+    if (covered && hist.picture.pixels > 0) {
+      const cv::Mat fg = system_.foreground()(hist.picture.box);
+      covered = 2 * cv::countNonZero(fg & hist.picture.mask) >= hist.picture.pixels;
+    }
     if (!covered) continue;
     bool taken_over = false;  // a bag reported at its place now is it, or hides it
     for (const Track& o : out) taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match);

@@ -100,6 +100,13 @@ struct MserTrackerParams {
   double hold_speed = 0.3;
   double hold_match = 0.5;  // m: a new object this close to a held bag is that bag
   int hold_min_frames = 3;  // a bag measured on fewer frames (a carried bag glimpsed) is not held
+  // A still bag whose object becomes person-sized (someone reached it and their blobs merged) is
+  // held as covered, and the object is the person track last seen within this many metres (plus
+  // max_speed times how long ago), else a new person track.
+  double merge_reach = 1.0;
+  // A new object within merge_reach (plus max_speed times the time since) of a person track lost
+  // at most this long ago (s) continues it.
+  double resume_time = 0.5;
   double class_vote_decay = 0.99;   // per frame: a memory of about 100 frames, as the plan-view tracker's
   Status validate() const;
 };
@@ -126,9 +133,13 @@ class MserTracker : public Tracker {
     int surface = -1;       // which of MserTrackerParams::surfaces (-1: the floor)
     bool by_head = false;   // placed by its top as a person (feet out of view or behind a table)
   };
-  bool place(const cv::Rect& box, Placement* out) const;
+  // `stature` (m, when known): a person placed by the head is this tall, else cut_person_height.
+  bool place(const cv::Rect& box, Placement* out, double stature = -1) const;
   // Track ids of the objects present at the start: kStartIds + 1, + 2, ...
   static constexpr int64_t kStartIds = 1'000'000;
+  // Track ids of people first seen merged with a still bag they reached (see merge_reach):
+  // kMergedIds + 1, + 2, ...
+  static constexpr int64_t kMergedIds = 2'000'000;
   const StereoCameraModel& camera() const { return camera_; }
   // The map-frame footprint of an image box (false: no floor contact in view); for tests.
   bool box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const;
@@ -155,8 +166,10 @@ class MserTracker : public Tracker {
     cv::Rect box;    // in the image, when last measured
     std::map<TrackClass, double> votes;
     Picture picture;  // a still bag: how it looked when last seen on its own, no hand on it
+    double stature = -1;  // a person's height, measured while the feet and head were in view (-1: not yet)
+    std::deque<double> statures;  // its last measurements
   };
-  bool place_by_head(const cv::Rect& box, Placement* out) const;
+  bool place_by_head(const cv::Rect& box, Placement* out, double stature = -1) const;
   // The surface the ray through pixel (u, v) meets first, inside its outline (-1: the floor).
   int surface_under(double u, double v) const;
   // The first surface the ray c + t dir (dir pointing down) meets within `margin` of its
@@ -186,6 +199,7 @@ class MserTracker : public Tracker {
   std::map<int64_t, History> history_;
   std::map<int64_t, int64_t> alias_;  // the system's object id -> the track id it continues
   int64_t id_offset_ = 0;  // ids after a reset continue above the last
+  int64_t merged_ids_ = 0;
   int64_t max_id_ = 0;
   int64_t last_stamp_ = INT64_MIN;
 };
