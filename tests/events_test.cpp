@@ -255,10 +255,12 @@ TEST(RenderedEvents, LeftBagFromMserTracksIsReportedInTime) {
   EXPECT_GE(bag->mota, 0.9);
   EXPECT_LE(bag->motp, 0.15);
   EXPECT_EQ(bag->num_switches, 0);
-  // People are the weak part of a mono camera today (docs/MSER.md): kept from getting worse.
+  // The owner, walking out under the camera at the end (her feet leave the image), is one track
+  // where she is (docs/MSER.md: measured 0.93 over the whole run; 0.76 before 2026-12-07).
   const vision::MotMetrics* person = of(vision::TrackClass::kPerson);
   ASSERT_NE(person, nullptr);
-  EXPECT_GE(person->mota, 0.6);
+  EXPECT_GE(person->mota, 0.85);
+  EXPECT_EQ(person->num_switches, 0);
   fs::remove_all(out);
 }
 

@@ -3,9 +3,10 @@
 # (or of the families named) with the chosen sensor on every camera, each is run and scored with
 # `vigil eval`, and a table per family and per kind is printed and written to OUT/summary.md
 # (and OUT/summary.json).
-#   tools/eval_generated.sh [truth|truth-clean|sgbm] [N] [OUT_DIR] [--seed S] [--jobs J] [family ...]
+#   tools/eval_generated.sh [truth|truth-clean|sgbm|mser] [N] [OUT_DIR] [--seed S] [--jobs J] [family ...]
 # truth: the ground-truth sensor with 0.05 m noise, 5 % misses and 0.05 false tracks per tick
-# (the issue's figure: at least 100 scenarios); sgbm: rendered frames, SGBM and the plan view.
+# (the issue's figure: at least 100 scenarios); sgbm: rendered frames, SGBM and the plan view;
+# mser: rendered frames (each camera's left image) and the colour MSER system (docs/MSER.md).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 mode="${1:-truth}"; n="${2:-10}"; out="${3:-$here/runs/generated_$mode}"
@@ -21,15 +22,18 @@ done
 [ ${#fams[@]} -gt 0 ] || fams=(all)
 vigil="$here/build/tools/vigil"
 [ -x "$vigil" ] || { echo "eval_generated: build first (tools/build.sh)" >&2; exit 2; }
-case "$mode" in truth|truth-clean|sgbm) ;; *) echo "eval_generated: mode must be truth, truth-clean or sgbm" >&2; exit 2 ;; esac
+case "$mode" in truth|truth-clean|sgbm|mser) ;; *) echo "eval_generated: mode must be truth, truth-clean, sgbm or mser" >&2; exit 2 ;; esac
+# The generator writes the sensors it knows; the MSER system is put on every camera at run time.
+gen_sensor="$mode"; run_args=()
+if [ "$mode" = mser ]; then gen_sensor=none; run_args=(--sensor mser); fi
 mkdir -p "$out/scenarios" "$out/runs"
-"$vigil" gen "${fams[@]}" --seed "$seed" --count "$n" --sensor "$mode" --out "$out/scenarios" > "$out/scenarios.txt"
+"$vigil" gen "${fams[@]}" --seed "$seed" --count "$n" --sensor "$gen_sensor" --out "$out/scenarios" > "$out/scenarios.txt"
 total=$(wc -l < "$out/scenarios.txt")
 echo "eval_generated: $total scenarios ($mode) in $out; running with $jobs jobs" >&2
 run_one() {
-  local file="$1" vigil="$2" out="$3"
+  local file="$1" vigil="$2" out="$3"; shift 3
   local name; name="$(basename "$file" .yaml)"
-  if "$vigil" run "$file" --out "$out/runs/$name" --no-video -q >"$out/runs/$name.log" 2>&1 &&
+  if "$vigil" run "$file" --out "$out/runs/$name" --no-video -q "$@" >"$out/runs/$name.log" 2>&1 &&
      "$vigil" eval "$out/runs/$name" >>"$out/runs/$name.log" 2>&1; then
     echo "done $name" >&2
   else
@@ -37,7 +41,7 @@ run_one() {
   fi
 }
 export -f run_one
-cut -d' ' -f1 "$out/scenarios.txt" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$vigil" "$out"
+cut -d' ' -f1 "$out/scenarios.txt" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$vigil" "$out" "${run_args[@]}"
 python3 - "$out" <<'PY'
 import json, os, sys, collections
 out = sys.argv[1]

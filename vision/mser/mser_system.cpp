@@ -379,6 +379,7 @@ void MserSystem::update_objects() {
   std::vector<cv::Rect> boxes;
   std::vector<int> areas;
   std::vector<std::vector<ModelRegion>> regions_of_box;
+  std::vector<char> still_part;  // per box: the still part of a split component
   if (!learning()) {
     cv::Mat closed;
     const int k = std::max(1, p_.close_px);
@@ -441,6 +442,8 @@ void MserSystem::update_objects() {
           box_of[label] = static_cast<int>(boxes.size());
           boxes.push_back(t);
           areas.push_back(px);
+          still_part.resize(boxes.size(), 0);
+          still_part.back() = label == part;
         }
         continue;
       }
@@ -453,6 +456,7 @@ void MserSystem::update_objects() {
     if (p_.recognise && !boxes.empty()) regions_of_box = box_regions(cc, box_of);
   }
   regions_of_box.resize(boxes.size());
+  still_part.resize(boxes.size(), 0);
   // An object's view for its model: the regions of the frame it showed the most foreground in
   // (or nearly: the later one), so an object leaving the image is modelled before it was cut.
   auto keep_view = [&](int64_t id, int area, std::vector<ModelRegion>* regions) {
@@ -469,6 +473,9 @@ void MserSystem::update_objects() {
     pred.x += static_cast<int>(std::lround(shift.x));
     pred.y += static_cast<int>(std::lround(shift.y));
     for (size_t b = 0; b < boxes.size(); ++b) {
+      // The still part split off an object much larger than it is a thing put down, new; the
+      // object (the one who put it down) goes on in the moving part.
+      if (still_part[b] && objects_[o].box.area() > 2 * boxes[b].area()) continue;
       const double v = iou(pred, boxes[b]);
       if (v >= p_.min_iou) pairs.push_back({-v, o, b});
     }

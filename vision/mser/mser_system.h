@@ -23,7 +23,9 @@
 // least `min_iou`) with a constant-velocity prediction, kept `keep_lost` frames when unseen, and
 // reported once seen `confirm_frames` frames (a new object is tentative before). A component
 // holding both still foreground regions and moving ones, each of an object's size, is split in
-// two (a bag just put down beside its owner walking off; a walker passing a parked robot).
+// two (a bag just put down beside its owner walking off; a walker passing a parked robot); the
+// still part of an object more than twice its size is a new object (the thing put down), the
+// object going on in the moving part (the one who put it down).
 //
 // Object models (10.3.4, object_model.h), with `recognise`: every object keeps its foreground
 // regions (centroid, second moments, mean colour, and the share of each region's boundary on
