@@ -519,6 +519,20 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     return &out.back();
   };
   std::map<int64_t, History> next;
+  // The person track last seen nearest (x, y), within merge_reach plus max_speed times how long
+  // ago, at most `max_unseen` s ago, and not one of `excluded`; -1 if none.
+  auto nearest_person = [&](double x, double y, double max_unseen, const std::set<int64_t>& excluded) {
+    int64_t who = -1;
+    double best_d = p_.merge_reach;
+    for (const auto& [pid, ph] : history_) {
+      if (ph.cls != TrackClass::kPerson || excluded.count(pid)) continue;
+      const double unseen = (frame.stamp_ns - ph.stamp_ns) * 1e-9;
+      if (unseen > max_unseen) continue;
+      const double d = std::hypot(ph.x - x, ph.y - y);
+      if (d < best_d + p_.max_speed * unseen) best_d = d, who = pid;
+    }
+    return who;
+  };
   // The tracks this frame's objects continue as things stand (before any new alias).
   std::set<int64_t> claimed;
   for (const ImageObject& o : system_.objects()) {
@@ -546,15 +560,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     // A new object where a person was lost a moment ago (their blob changed so much the system
     // began another: a bag taken from it, a merge undone) continues them.
     if (!history_.count(sys_id) && !alias_.count(sys_id)) {
-      int64_t who = -1;
-      double best_d = p_.merge_reach;
-      for (const auto& [pid, ph] : history_) {
-        if (ph.cls != TrackClass::kPerson || claimed.count(pid)) continue;
-        const double unseen = (frame.stamp_ns - ph.stamp_ns) * 1e-9;
-        if (unseen > p_.resume_time) continue;
-        const double d = std::hypot(ph.x - x, ph.y - y);
-        if (d < best_d + p_.max_speed * unseen) best_d = d, who = pid;
-      }
+      const int64_t who = nearest_person(x, y, p_.resume_time, claimed);
       if (who >= 0) {
         alias_[sys_id] = who;
         claimed.insert(who);
@@ -577,15 +583,9 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
                                           b->second.frames >= p_.hold_min_frames &&
                                           std::hypot(b->second.vx, b->second.vy) <= p_.hold_speed &&
                                           (pl.by_head || h >= p_.classes.person_min_height)) {
-      int64_t who = -1;
-      double best_d = p_.merge_reach;
-      for (const auto& [pid, ph] : history_) {
-        if (ph.cls != TrackClass::kPerson || next.count(pid)) continue;
-        const double unseen = (frame.stamp_ns - ph.stamp_ns) * 1e-9;
-        if (unseen > p_.hold_time) continue;
-        const double d = std::hypot(ph.x - x, ph.y - y);
-        if (d < best_d + p_.max_speed * unseen) best_d = d, who = pid;
-      }
+      std::set<int64_t> reported;
+      for (const auto& [nid, nh] : next) reported.insert(nid);
+      const int64_t who = nearest_person(x, y, p_.hold_time, reported);
       id = who >= 0 ? who : kMergedIds + ++merged_ids_;
       alias_[sys_id] = id;
     }
