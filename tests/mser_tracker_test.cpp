@@ -550,6 +550,64 @@ TEST(MserTracker, APersonCutOffAtTheBottomStandsNoFartherThanTheBottomEdgeAllows
   EXPECT_FALSE(t->box_to_map(wide, &mx, &my, &w, &h)) << "a wide low box cut at the bottom only is not placed";
 }
 
+// A walker far off under a steeply pitched camera (as cam_lab, 35 degrees down) whose head and
+// shirt are above the image: her box's top is the image's top, so her height is only a lower
+// bound, already taller than a bag. She is marked cut (Track::top_cut) and classed a robot by
+// that height, for the vision sensor host to tell from where the robots say they are (a person
+// elsewhere: CutTracksAreRobotsOnlyWhereARobotReportsItself); before, no vote was cast and she
+// stayed unknown. The same walker nearer, whole in view, is a person and not cut; and one seen
+// whole before she walks off stays a person.
+TEST(MserTracker, AWalkerWhoseTopTheImageCutsIsMarkedCutAndNotLeftUnknown) {
+  CameraPose pose;
+  pose.position = Eigen::Vector3d(0, 0, 2.5);
+  pose.pitch = 35 * M_PI / 180;
+  const StereoCameraModel cam(Intrinsics::from_hfov(320, 240, 60 * M_PI / 180), 0.09, pose);
+  for (const double range : {6.5, 2.6}) {
+    auto made = MserTracker::create(cam);
+    ASSERT_TRUE(made.ok());
+    Feeder feed{&*made};
+    const cv::Mat floor = frame_with_walker(cam, 0, 0, false);
+    const bool cut = cylinder_box(cam, range, 0, 0.25, 1.75).y < 0;
+    ASSERT_EQ(cut, range > 5) << "the far walker's head is out of view, the near one's in view";
+    int seen = 0;
+    for (int k = 0; k < 60; ++k) {
+      const double y = -0.9 + 0.07 * std::max(0, k - 25);
+      cv::Mat img = floor.clone();
+      if (k >= 25) draw_figure(img, cam, range, y, 0.25, 1.75, cv::Scalar(40, 40, 200), cv::Scalar(120, 40, 30));
+      for (const Track& t : feed(img)) {
+        if (k < 32) continue;
+        ++seen;
+        EXPECT_NEAR(t.x, range, 0.5) << "frame " << k;
+        EXPECT_EQ(t.top_cut, cut) << "frame " << k;
+        EXPECT_EQ(t.cls, cut ? TrackClass::kRobot : TrackClass::kPerson) << "frame " << k << " height " << t.height;
+        if (cut) {
+          EXPECT_GT(t.height, 0.7);
+          EXPECT_LT(t.height, 1.75);
+        }
+      }
+    }
+    EXPECT_GE(seen, 20) << "range " << range;
+  }
+  // Seen whole first, then walking off until the image's top cuts her: still a person (the cut
+  // boxes say only that she is taller than a bag), and marked cut once she is.
+  auto made = MserTracker::create(cam);
+  ASSERT_TRUE(made.ok());
+  Feeder feed{&*made};
+  const cv::Mat floor = frame_with_walker(cam, 0, 0, false);
+  int cut_seen = 0;
+  for (int k = 0; k < 90; ++k) {
+    const double x = 2.6 + 0.07 * std::max(0, k - 25);
+    cv::Mat img = floor.clone();
+    if (k >= 25) draw_figure(img, cam, x, -0.3, 0.25, 1.75, cv::Scalar(40, 40, 200), cv::Scalar(120, 40, 30));
+    for (const Track& t : feed(img)) {
+      if (k < 32) continue;
+      EXPECT_EQ(t.cls, TrackClass::kPerson) << "frame " << k << " at " << x << " m";
+      if (cylinder_box(cam, x, -0.3, 0.25, 1.75).y < -3) cut_seen += t.top_cut;
+    }
+  }
+  EXPECT_GE(cut_seen, 10) << "the test needs frames with her top cut off";
+}
+
 TEST(MserTracker, BadFramesAreRefusedWithTheReason) {
   auto t = MserTracker::create(corridor_camera());
   ASSERT_TRUE(t.ok());

@@ -7,6 +7,7 @@
 # truth: the ground-truth sensor with 0.05 m noise, 5 % misses and 0.05 false tracks per tick
 # (the issue's figure: at least 100 scenarios); sgbm: rendered frames, SGBM and the plan view;
 # mser: rendered frames (each camera's left image) and the colour MSER system (docs/MSER.md).
+# VIGIL=PATH runs another build of vigil (default: build/tools/vigil).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 mode="${1:-truth}"; n="${2:-10}"; out="${3:-$here/runs/generated_$mode}"
@@ -20,8 +21,8 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ ${#fams[@]} -gt 0 ] || fams=(all)
-vigil="$here/build/tools/vigil"
-[ -x "$vigil" ] || { echo "eval_generated: build first (tools/build.sh)" >&2; exit 2; }
+vigil="${VIGIL:-$here/build/tools/vigil}"
+[ -x "$vigil" ] || { echo "eval_generated: $vigil is not there: build first (tools/build.sh)" >&2; exit 2; }
 case "$mode" in truth|truth-clean|sgbm|mser) ;; *) echo "eval_generated: mode must be truth, truth-clean, sgbm or mser" >&2; exit 2 ;; esac
 # The generator writes the sensors it knows; the MSER system is put on every camera at run time.
 gen_sensor="$mode"; run_args=()

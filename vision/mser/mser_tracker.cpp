@@ -618,6 +618,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
         x = pl.x, y = pl.y, w = pl.width, h = pl.height;
       }
     }
+    const bool top_cut = o.box.y <= 0 && !pl.by_head;  // its top out of view: its height a lower bound
     // Velocity: the footprint's displacement over the last `velocity_window` seconds (a pixel
     // of the foot row is several centimetres, so frame-to-frame differences are mostly noise).
     // A person's jump no one walks (the box's bottom now another part of the blob: a table's
@@ -638,15 +639,19 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       hist.vy = span > 0 ? (y - first.y) / span : 0.0;
     }
     for (auto& [c, v] : hist.votes) v *= p_.class_vote_decay;
+    hist.cut_votes *= p_.class_vote_decay;
     // Classed by its own height: a book on a table is as low as a bag on the floor. A box cut
     // off by the image's top edge (not placed by a head) gives only a lower bound of the
-    // height: a person's if it reaches one, else no vote (a walker whose head is out of view
-    // is not short).
+    // height: a person's if it reaches one; taller than a bag, only that it is a robot or
+    // someone cut off at the waist (History::cut_votes); else no vote (a walker whose head is
+    // out of view is not short).
     if (o.box.y > 0 || pl.by_head)
       hist.votes[pl.support > 0 ? classify_track(std::max(p_.classes.bag_min_height, pl.own_height), w, p_.classes)
                                 : classify_track(h, w, p_.classes)] += 1.0;
     else if (pl.own_height >= p_.classes.person_min_height)
       hist.votes[TrackClass::kPerson] += 1.0;
+    else if (pl.own_height >= p_.classes.bag_max_height)
+      hist.cut_votes += 1.0;
     // A still bag seen on its own, no hand on it, its box not grown (merged with someone):
     // how it looks now is what a hand on it will be judged against.
     const double speed = std::hypot(hist.vx, hist.vy);
@@ -682,11 +687,17 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     double best = -1;
     for (const auto& [c, v] : hist.votes)  // std::map: ties go to the first class in order
       if (v > best) best = v, cls = c;
+    // Nothing measured whole of late (less than a frame's vote left), but cut boxes taller than
+    // a bag: a robot by its height, reported cut, for whoever knows where the robots say they
+    // are to tell (the vision sensor host: a person unless a robot reports itself there).
+    bool cut_class = false;
+    if (best < 1.0 && hist.cut_votes > std::max(best, 0.0)) cls = TrackClass::kRobot, cut_class = true;
     hist.cls = cls;
     next[id] = hist;
     Track* t = report(id, cls, x, y, w, h, std::min(1.0, 0.5 + 0.05 * o.age), true);
     t->vx = hist.vx;
     t->vy = hist.vy;
+    t->top_cut = top_cut || cut_class;
     if (const auto hand = hands.find(id); hand != hands.end() && cls != TrackClass::kBag) t->hand_on = static_cast<int>(hand->second);
   }
   // Objects unseen this frame keep their history for a while; a still bag is held where it

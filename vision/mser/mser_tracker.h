@@ -165,6 +165,7 @@ class MserTracker : public Tracker {
     int frames = 0;  // measured on
     cv::Rect box;    // in the image, when last measured
     std::map<TrackClass, double> votes;
+    double cut_votes = 0;  // boxes cut off by the image's top, taller than a bag (decaying as votes)
     Picture picture;  // a still bag: how it looked when last seen on its own, no hand on it
     double stature = -1;  // a person's height, measured while the feet and head were in view (-1: not yet)
     std::deque<double> statures;  // its last measurements
