@@ -445,6 +445,61 @@ TEST(MserSystem, AFigureWalkingInFrontOfALearnedBackgroundIsOneObject) {
   EXPECT_GT(sys.background_entries(), 2);
 }
 
+// Two people who merge in the image: A stands from frame 25 on; B walks in behind her (drawn
+// first, A over her), her head above A's, and stops half hidden. Their foreground regions then
+// form one component; its regions keep the track ids they had (10.3.2), so it is parted by whose
+// they were (split_owners): two objects with the ids they had before they met, also once both
+// stand still (where the still-and-moving split has nothing to part). Without it, one object.
+TEST(MserSystem, TwoPeopleMergedInTheImageStayTwoObjectsByWhoseRegionsTheyAre) {
+  auto frame = [](int f) {
+    cv::Mat img(120, 160, CV_8UC3);
+    cv::RNG rng(f * 7 + 1);
+    rng.fill(img, cv::RNG::UNIFORM, 110, 116);
+    cv::rectangle(img, cv::Rect(0, 0, 160, 30), cv::Scalar(170, 170, 175), cv::FILLED);
+    if (f >= 25) {
+      const int bx = std::min(10 + 3 * (f - 25), 70);  // B: walks right, stops at 70
+      cv::rectangle(img, cv::Rect(bx, 34, 14, 20), cv::Scalar(40, 160, 50), cv::FILLED);
+      cv::rectangle(img, cv::Rect(bx + 2, 54, 10, 18), cv::Scalar(90, 90, 90), cv::FILLED);
+      cv::rectangle(img, cv::Rect(80, 40, 14, 22), cv::Scalar(40, 40, 190), cv::FILLED);  // A, standing
+      cv::rectangle(img, cv::Rect(82, 62, 10, 20), cv::Scalar(60, 30, 20), cv::FILLED);
+    }
+    return img;
+  };
+  for (const bool split : {true, false}) {
+    MserSystemParams p;
+    p.split_owners = split;
+    MserSystem sys(p);
+    int64_t id_a = -1, id_b = -1;
+    int two = 0, merged_frames = 0;
+    for (int f = 0; f < 75; ++f) {
+      ASSERT_TRUE(sys.process(frame(f)));
+      const auto objs = sys.objects();
+      const int bx = std::min(10 + 3 * (f - 25), 70);
+      if (f >= 30 && bx + 14 < 80 - 8) {  // apart: learn who is who
+        for (const ImageObject& o : objs) (o.box.x > 75 ? id_a : id_b) = o.id;
+        continue;
+      }
+      if (bx < 70 || f < 60) continue;  // both standing still for 10 frames and more
+      ++merged_frames;
+      int64_t got_a = -1, got_b = -1;
+      for (const ImageObject& o : objs) {
+        if (o.box.x >= 76 && std::abs(o.box.y - 40) <= 4) got_a = o.id;
+        if (o.box.x + o.box.width <= 84 && std::abs(o.box.y - 34) <= 4) got_b = o.id;
+      }
+      two += got_a == id_a && got_b == id_b;
+    }
+    ASSERT_GE(id_a, 0);
+    ASSERT_GE(id_b, 0);
+    ASSERT_NE(id_a, id_b);
+    ASSERT_EQ(merged_frames, 15);
+    if (split) {
+      EXPECT_GE(two, merged_frames - 1) << "both, each with the id she had, once merged and still";
+    } else {
+      EXPECT_LE(two, 2) << "without the split the merged component is one object";
+    }
+  }
+}
+
 // vigil track --pipeline mser on a mono video: MOTChallenge lines for the walking figure, and a
 // missing video refused naming it.
 // The MOT lines of `vigil track` on the synthetic walk video: each box overlaps the figure

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <tuple>
 
@@ -75,6 +76,7 @@ void MserSystem::reset() {
   model_.clear();
   info_.clear();
   objects_.clear();
+  region_owner_.clear();
   next_object_ = 1;
   frame_ = 0;
   moved_background_ = 0;
@@ -208,6 +210,12 @@ bool MserSystem::colour_beside(const Region& reg) const {
     }
   }
   return false;
+}
+
+bool MserSystem::set_small_things_mask(const cv::Mat& mask) {
+  if (!mask.empty() && mask.type() != CV_8U) return false;
+  small_things_ = mask.clone();
+  return true;
 }
 
 int MserSystem::release_from_background(const cv::Mat& mask) {
@@ -380,13 +388,24 @@ void MserSystem::update_objects() {
   std::vector<int> areas;
   std::vector<std::vector<ModelRegion>> regions_of_box;
   std::vector<char> still_part;  // per box: the still part of a split component
+  std::vector<int64_t> box_owner;  // per box: the object whose regions it holds (-1: found by matching)
+  cv::Mat cc;                      // components (and the parts split off them)
+  std::vector<int> box_of;         // component or part -> box
   if (!learning()) {
     cv::Mat closed;
     const int k = std::max(1, p_.close_px);
     cv::morphologyEx(fg_, closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
-    cv::Mat cc, stats, centroids;
+    cv::Mat stats, centroids;
     const int n = cv::connectedComponentsWithStats(closed, cc, stats, centroids, 8, CV_32S);
     const double min_area = p_.min_object_area * static_cast<double>(fg_.total());
+    const double min_still = small_things_.size() == fg_.size()
+                                 ? std::min(min_area, p_.min_still_area * static_cast<double>(fg_.total()))
+                                 : min_area;
+    // A box whose bottom middle lies where small things may lie.
+    auto on_small_mask = [&](const cv::Rect& b) {
+      return small_things_.size() == fg_.size() && b.area() > 0 &&
+             small_things_.at<uint8_t>(b.y + b.height - 1, b.x + b.width / 2) != 0;
+    };
     // Which foreground regions are still: tracked for a while and not moving.
     std::vector<char> still(seg_out_.regions.size(), 0);
     if (p_.split_still) {
@@ -401,13 +420,126 @@ void MserSystem::update_objects() {
         still[r] = cv::norm(t.last - then) < p_.split_still_speed * age;
       }
     }
-    std::vector<int> box_of(n, -1);  // component -> box
+    box_of.assign(n, -1);
     int labels = n;
+    // Live objects that stood upright (see split_owners).
+    std::set<int64_t> upright;
+    std::map<int64_t, cv::Rect> last_box;
+    if (p_.split_owners)
+      for (const ImageObject& o : objects_)
+        if (o.age + 1 >= p_.confirm_frames && o.box.height >= p_.split_aspect * o.box.width) upright.insert(o.id), last_box[o.id] = o.box;
+    auto owner_at = [&](int r) -> int64_t {
+      const int64_t rid = region_ids_[r];
+      if (rid <= 0) return -1;
+      const auto it = region_owner_.find(rid);
+      return it != region_owner_.end() && upright.count(it->second) ? it->second : -1;
+    };
+    // Each upright object's foreground pixels in the whole frame: a component holding a small
+    // share of someone (a piece of her cut off from the rest) is not where she is.
+    std::map<int64_t, int> owned_px;
+    if (upright.size() >= 2)
+      for (int y = 0; y < cc.rows; ++y) {
+        const uint8_t* f = fg_.ptr<uint8_t>(y);
+        const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+        for (int x = 0; x < cc.cols; ++x)
+          if (f[x]) {
+            const int64_t ow = owner_at(l[x]);
+            if (ow >= 0) ++owned_px[ow];
+          }
+      }
+    auto add_box = [&](int label, const cv::Rect& b, bool still, int64_t owner) {
+      const cv::Rect t = trimmed_box(cc, fg_, label, b, p_.thin_row);
+      const int px = cv::countNonZero(fg_(t) & (cc(t) == label));
+      if (px < p_.min_fill * t.area()) return;
+      box_of[label] = static_cast<int>(boxes.size());
+      boxes.push_back(t);
+      areas.push_back(px);
+      still_part.resize(boxes.size(), 0);
+      still_part.back() = still;
+      box_owner.resize(boxes.size(), -1);
+      box_owner.back() = owner;
+    };
     for (int i = 1; i < n; ++i) {
       const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-      if (area < min_area) continue;
+      if (area < min_still) continue;
       const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                          stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+      // Whose regions the component holds: parted when two upright objects each have an
+      // object's size of it.
+      if (upright.size() >= 2 && area >= min_area) {
+        std::map<int64_t, int> px_of;
+        std::map<int64_t, cv::Rect> owned_box;  // the box of each owner's pixels here
+        for (int y = box.y; y < box.y + box.height; ++y) {
+          const int32_t* c = cc.ptr<int32_t>(y);
+          const uint8_t* f = fg_.ptr<uint8_t>(y);
+          const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+          for (int x = box.x; x < box.x + box.width; ++x)
+            if (c[x] == i && f[x]) {
+              const int64_t ow = owner_at(l[x]);
+              if (ow < 0) continue;
+              ++px_of[ow];
+              cv::Rect& b = owned_box[ow];
+              b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+            }
+        }
+        std::vector<std::pair<int, int64_t>> owners;  // (-pixels, id): the largest first
+        for (const auto& [id, px] : px_of)
+          if (px >= min_area && 2 * px >= owned_px[id] && last_box[id].height >= p_.split_min_height * box.height)
+            owners.push_back({-px, id});
+        // Side by side or one behind the other, not one above the other (the shirt and the
+        // legs of one person, once apart for a moment): each part's last box shares at least
+        // half of its height's rows with the largest's.
+        std::sort(owners.begin(), owners.end());
+        if (owners.size() >= 2) {
+          const cv::Rect& first = last_box[owners[0].second];
+          owners.erase(std::remove_if(owners.begin() + 1, owners.end(),
+                                      [&](const std::pair<int, int64_t>& o) {
+                                        const cv::Rect& b = last_box[o.second];
+                                        const int rows = std::min(b.br().y, first.br().y) - std::max(b.y, first.y);
+                                        return 2 * rows < std::min(b.height, first.height);
+                                      }),
+                       owners.end());
+        }
+        if (owners.size() >= 2) {
+          std::map<int64_t, size_t> part_of;  // owner -> part (0: the largest, keeping label i)
+          std::vector<int> part_label(owners.size());
+          std::vector<cv::Rect> part_box(owners.size());
+          for (size_t q = 0; q < owners.size(); ++q) {
+            part_label[q] = q == 0 ? i : labels++;
+            if (q > 0) box_of.push_back(-1);
+            part_of[owners[q].second] = q;
+          }
+          for (int y = box.y; y < box.y + box.height; ++y) {
+            int32_t* c = cc.ptr<int32_t>(y);
+            const uint8_t* f = fg_.ptr<uint8_t>(y);
+            const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+            for (int x = box.x; x < box.x + box.width; ++x) {
+              if (c[x] != i) continue;
+              // Another's pixels, or nobody's: to the part whose own pixels' box holds the
+              // pixel (the smallest such), else the largest part.
+              const int64_t ow = f[x] ? owner_at(l[x]) : -1;
+              const auto it = ow >= 0 ? part_of.find(ow) : part_of.end();
+              size_t q = 0;
+              if (it != part_of.end()) {
+                q = it->second;
+              } else {
+                int smallest = std::numeric_limits<int>::max();
+                for (size_t o = 0; o < owners.size(); ++o) {
+                  const cv::Rect& ob = owned_box[owners[o].second];
+                  if (ob.contains({x, y}) && ob.area() < smallest) smallest = ob.area(), q = o;
+                }
+              }
+              c[x] = part_label[q];
+              if (!f[x]) continue;
+              cv::Rect& b = part_box[q];
+              b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+            }
+          }
+          for (size_t q = 0; q < owners.size(); ++q)
+            if (part_box[q].area() > 0) add_box(part_label[q], part_box[q], false, owners[q].second);
+          continue;
+        }
+      }
       // Foreground (before closing) within the component, still and moving.
       int fg_px = 0, still_px = 0;
       cv::Rect still_box, moving_box;
@@ -423,9 +555,12 @@ void MserSystem::update_objects() {
           still_px += still[l[x]];
         }
       }
+      // Smaller than an object: only a thing lying still where small things may lie.
+      if (area < min_area && (10 * still_px < 9 * fg_px || !on_small_mask(box))) continue;
       // Something still beside something moving, each an object's size (a bag just put down
-      // beside the person walking off, a walker passing in front of a parked robot): two objects.
-      if (still_px >= min_area && fg_px - still_px >= min_area) {
+      // beside the person walking off, a walker passing in front of a parked robot), or a small
+      // still thing where small things may lie (a book put down on a table): two objects.
+      if ((still_px >= min_area || (still_px >= min_still && on_small_mask(still_box))) && fg_px - still_px >= min_area) {
         const int part = labels++;
         box_of.push_back(-1);
         for (int y = still_box.y; y < still_box.y + still_box.height; ++y) {
@@ -435,16 +570,7 @@ void MserSystem::update_objects() {
           for (int x = still_box.x; x < still_box.x + still_box.width; ++x)
             if (c[x] == i && f[x] && still[l[x]]) c[x] = part;
         }
-        for (const auto& [b, label] : {std::pair{moving_box, i}, std::pair{still_box, part}}) {
-          const cv::Rect t = trimmed_box(cc, fg_, label, b, p_.thin_row);
-          const int px = cv::countNonZero(fg_(t) & (cc(t) == label));
-          if (px < p_.min_fill * t.area()) continue;
-          box_of[label] = static_cast<int>(boxes.size());
-          boxes.push_back(t);
-          areas.push_back(px);
-          still_part.resize(boxes.size(), 0);
-          still_part.back() = label == part;
-        }
+        for (const auto& [b, label] : {std::pair{moving_box, i}, std::pair{still_box, part}}) add_box(label, b, label == part, -1);
         continue;
       }
       const cv::Rect t = trimmed_box(cc, fg_, i, box, p_.thin_row);
@@ -457,6 +583,7 @@ void MserSystem::update_objects() {
   }
   regions_of_box.resize(boxes.size());
   still_part.resize(boxes.size(), 0);
+  box_owner.resize(boxes.size(), -1);
   // An object's view for its model: the regions of the frame it showed the most foreground in
   // (or nearly: the later one), so an object leaving the image is modelled before it was cut.
   auto keep_view = [&](int64_t id, int area, std::vector<ModelRegion>* regions) {
@@ -473,6 +600,11 @@ void MserSystem::update_objects() {
     pred.x += static_cast<int>(std::lround(shift.x));
     pred.y += static_cast<int>(std::lround(shift.y));
     for (size_t b = 0; b < boxes.size(); ++b) {
+      // A part holding an object's regions is that object's.
+      if (box_owner[b] >= 0) {
+        if (objects_[o].id == box_owner[b]) pairs.push_back({-2.0, o, b});
+        continue;
+      }
       // The still part split off an object much larger than it is a thing put down, new; the
       // object (the one who put it down) goes on in the moving part.
       if (still_part[b] && objects_[o].box.area() > 2 * boxes[b].area()) continue;
@@ -541,6 +673,30 @@ void MserSystem::update_objects() {
     }
   std::sort(next.begin(), next.end(), [](const ImageObject& a, const ImageObject& b) { return a.id < b.id; });
   objects_.swap(next);
+  // Whose each foreground region is now: the object its box went to (split_owners). Entries of
+  // objects that ended are dropped.
+  if (p_.split_owners && !cc.empty()) {
+    std::vector<int64_t> id_of_box(boxes.size(), -1);
+    for (const ImageObject& o : objects_)
+      if (o.lost == 0)
+        for (size_t b = 0; b < boxes.size(); ++b)
+          if (boxes[b] == o.box) id_of_box[b] = o.id;
+    for (int y = 0; y < cc.rows; ++y) {
+      const int32_t* c = cc.ptr<int32_t>(y);
+      const uint8_t* f = fg_.ptr<uint8_t>(y);
+      const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
+      for (int x = 0; x < cc.cols; ++x) {
+        if (!f[x] || c[x] <= 0 || c[x] >= static_cast<int>(box_of.size()) || box_of[c[x]] < 0) continue;
+        const int64_t rid = region_ids_[l[x]];
+        const int64_t who = id_of_box[box_of[c[x]]];
+        if (rid > 0 && who >= 0) region_owner_[rid] = who;
+      }
+    }
+    std::set<int64_t> live;
+    for (const ImageObject& o : objects_) live.insert(o.id);
+    for (auto it = region_owner_.begin(); it != region_owner_.end();)
+      it = live.count(it->second) ? std::next(it) : region_owner_.erase(it);
+  }
 }
 
 std::vector<ImageObject> MserSystem::objects() const {

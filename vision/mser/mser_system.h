@@ -41,6 +41,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <unordered_map>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -66,6 +67,11 @@ struct MserSystemParams {
   int absorb_frames = 1800;  // 2 min at 15 fps: a bag left in view stays foreground for the rules
   int close_px = 7;
   double min_object_area = 0.002;  // of the image
+  // Where the small-things mask is set (set_small_things_mask: table tops as the camera sees
+  // them), a thing lying still there (nine tenths of its component's foreground still, or the
+  // still part split off a moving one) whose box's bottom middle is on the mask is an object
+  // from this share of the image (a book put down on a table is under min_object_area).
+  double min_still_area = 0.0005;
   double min_fill = 0.25;          // foreground pixels over box area (scattered specks are not objects)
   int confirm_frames = 3;          // an object is reported once seen this many frames running
   double min_iou = 0.25;
@@ -81,6 +87,18 @@ struct MserSystemParams {
   int still_age = 10;
   double split_still_speed = 0.2;
   int keep_lost = 5;
+  // Objects merging in the image (someone walks behind someone else): a component holding the
+  // foreground regions of two or more confirmed objects, each part of an object's size and at
+  // least half of that object's foreground in the frame, whose last boxes stood upright (at
+  // least `split_aspect` times as tall as wide) and at least `split_min_height` of the
+  // component's height (people within twice each other's distance; not a bag beside its owner),
+  // sharing at least half their rows with the largest's (side by side or one behind the other;
+  // not the shirt above the legs of one person, apart for a moment), is parted by whose the
+  // regions were (they keep their track ids through the merge, 10.3.2); another's or nobody's
+  // pixels go to the part whose own pixels' box holds them (the smallest), else the largest.
+  bool split_owners = true;
+  double split_aspect = 1.2;
+  double split_min_height = 0.5;
   // Object models (10.3.4): re-entering objects recognised by their regions.
   bool recognise = true;
   int max_models = 50;             // ended objects kept, the oldest forgotten first
@@ -127,6 +145,9 @@ class MserSystem {
   // is a region reaching over them with the model's colours under the rest of it. False after learning or with a mask of the
   // wrong size or type. Returns how many entries left.
   int release_from_background(const cv::Mat& mask);
+  // Where small still things may lie (see min_still_area): CV_8U of the image's size, non-zero
+  // there. Empty (the default): nowhere. False on a mask of the wrong type.
+  bool set_small_things_mask(const cv::Mat& mask);
   const cv::Mat& released() const { return uncovered_; }
   // Regions matching no model entry but lying on the model's colours (a background region cut
   // by something in front): taken as background.
@@ -195,6 +216,8 @@ class MserSystem {
     int area = 0;
   };
   std::map<int64_t, ObjectView> object_regions_;  // live objects: their fullest view's regions
+  cv::Mat small_things_;  // CV_8U: where small still things may lie (set_small_things_mask)
+  std::unordered_map<int64_t, int64_t> region_owner_;  // region track id -> the live object it was last part of
 };
 
 }  // namespace vigil::vision::mser

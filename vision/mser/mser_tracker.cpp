@@ -21,6 +21,8 @@ Status MserTrackerParams::validate() const {
   if (system.warmup_frames < 0 || system.learn_frames < 1)
     return bad_input("", 0, "learn_frames", "needs at least one learning frame and no negative warm-up");
   if (system.confirm_frames < 1) return bad_input("", 0, "confirm_frames", "must be at least 1");
+  if (!(surface_min_area > 0 && surface_min_area <= 1))
+    return bad_input("", 0, "surface_min_area", "must be a share of the image in (0, 1]");
   return Status::Ok();
 }
 
@@ -28,7 +30,17 @@ Result<MserTracker> MserTracker::create(const StereoCameraModel& camera, const M
   if (Status s = params.validate(); !s) return s.error();
   const auto& k = camera.intrinsics();
   if (k.width < 3 || k.height < 3 || !(k.fx > 0)) return bad_input("", 0, "camera", "the camera's intrinsics are not usable");
-  return MserTracker(camera, params);
+  MserTrackerParams p = params;
+  p.system.min_still_area = p.surface_min_area;
+  MserTracker t(camera, p);
+  // Where the camera sees a surface's top: small still things may lie there.
+  if (!p.surfaces.empty()) {
+    cv::Mat mask(k.height, k.width, CV_8U, cv::Scalar(0));
+    for (int v = 0; v < k.height; ++v)
+      for (int u = 0; u < k.width; ++u) mask.at<uint8_t>(v, u) = t.surface_under(u, v) >= 0 ? 255 : 0;
+    t.system_.set_small_things_mask(mask);
+  }
+  return t;
 }
 
 void MserTracker::reset() {
@@ -540,9 +552,11 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     const auto al = alias_.find(sid);
     claimed.insert(al != alias_.end() ? al->second : sid);
   }
+  const double object_px = p_.system.min_object_area * static_cast<double>(frame.left.total());
   for (const ImageObject& o : system_.objects()) {
     Placement pl;
     if (!place(o.box, &pl)) continue;
+    if (o.area < object_px && pl.support <= 0) continue;  // small, and not lying on a surface
     double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     const int64_t sys_id = o.id + id_offset_;
     max_id_ = std::max(max_id_, sys_id);

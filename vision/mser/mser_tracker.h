@@ -51,6 +51,11 @@ struct MserTrackerParams {
   double max_range = 12;         // m from the camera to the foot point
   std::vector<Surface> surfaces;  // what an object's bottom may stand on besides the floor
   double surface_margin = 0.1;    // m around a surface's outline that still counts as on it
+  // Things put down on a surface and left lying still (a book, a bottle on the table) are
+  // objects from this share of the image where the camera sees a surface's top
+  // (MserSystemParams::min_still_area and the small-things mask, set by create()); smaller than
+  // system.min_object_area, only those placed on a surface are reported.
+  double surface_min_area = 0.0005;
   double max_footprint = 0.5;     // m: the deepest footprint (a person's), whatever the box's width
   // A box whose bottom lies on a surface's far edge (this many rows below it look onto the
   // surface) is cut off by the surface, not standing where its bottom ray meets the floor.
