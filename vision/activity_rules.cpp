@@ -293,10 +293,7 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
           return dist(t->x, t->y, a.x, a.y) < dist(t->x, t->y, c.x, c.y);
         });
         if (f != forgotten_.end() && dist(t->x, t->y, f->x, f->y) <= p_.object_match_distance) {
-          o.restored = true;
-          o.restored_owner = f->owner;
-          o.restored_at_start = f->at_start;
-          o.restored_left_event = f->left_event;
+          o.restored = *f;
           // Kept until the model is confirmed: a track too short to confirm one (noise, or the
           // bag glimpsed between passers-by) does not use it up.
         }
@@ -382,9 +379,9 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
         o.at_start = o.first_seen - first_stamp_ <= ns(p_.start_time);
         o.owner = o.at_start ? -1 : o.owner_candidate;
         if (o.restored) {
-          o.at_start = o.restored_at_start;
-          o.owner = o.restored_owner;
-          o.left_event = o.restored_left_event;
+          o.at_start = o.restored->at_start;
+          o.owner = o.restored->owner;
+          o.left_event = o.restored->left_event;
           std::erase_if(forgotten_, [&](const Forgotten& f) { return dist(f.x, f.y, o.x, o.y) <= p_.object_match_distance; });
         }
       }

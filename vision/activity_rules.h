@@ -144,6 +144,15 @@ class ActivityRules {
   // Every event so far, in order.
   const std::vector<Event>& events() const { return events_; }
 
+  // A bag model forgotten with nobody near it (object_memory_time): where it lay, its owner,
+  // whether it was there at the start, its left-bag event, and when it was forgotten.
+  struct Forgotten {
+    double x = 0, y = 0;
+    int owner = -1;
+    bool at_start = false;
+    uint64_t left_event = 0;
+    int64_t when = 0;
+  };
   struct ObjectModel {
     uint64_t key = 0;              // unique over the run
     int track = -1;                // the last bag track matched to it
@@ -175,10 +184,7 @@ class ActivityRules {
     double confidence = 0;         // mean confidence of its sightings
     // A forgotten model this one was found on the place of (object_memory_time): what it takes
     // over when it is confirmed.
-    bool restored = false;
-    int restored_owner = -1;
-    bool restored_at_start = false;
-    uint64_t restored_left_event = 0;
+    std::optional<Forgotten> restored;
   };
   const std::vector<ObjectModel>& objects() const { return objects_; }
 
@@ -235,13 +241,6 @@ class ActivityRules {
   std::map<int, Person> people_;
   std::map<int, BagTrackStart> bag_tracks_;  // by bag track id
   std::vector<ObjectModel> objects_;
-  struct Forgotten {
-    double x = 0, y = 0;
-    int owner = -1;
-    bool at_start = false;
-    uint64_t left_event = 0;
-    int64_t when = 0;
-  };
   std::vector<Forgotten> forgotten_;  // see object_memory_time
   std::map<std::pair<int, size_t>, Visit> visits_;  // (person, watched index)
   std::map<std::pair<int, uint64_t>, Visit> model_visits_;  // (person, object model key)

@@ -177,30 +177,24 @@ bool VideoFile::open(const std::filesystem::path& path, double fps, cv::Size siz
 
 void VideoFile::write(const cv::Mat& frame) {
   if (!is_open() || frame.empty()) return;
-  if (!h264_) {
-    if (frame.size() == video_size_) {
-      writer_.write(frame);
-      return;
-    }
-    padded_.create(video_size_, frame.type());
+  // A frame of another size than the video's is placed top-left on black (H.264 needs even
+  // sizes; the AVI writer, the size it was opened with).
+  auto padded = [this](const cv::Mat& f) -> const cv::Mat& {
+    padded_.create(video_size_, f.type());
     padded_.setTo(cv::Scalar::all(0));
-    const cv::Rect r(0, 0, std::min(frame.cols, video_size_.width), std::min(frame.rows, video_size_.height));
-    frame(r).copyTo(padded_(r));
-    writer_.write(padded_);
+    const cv::Rect r(0, 0, std::min(f.cols, video_size_.width), std::min(f.rows, video_size_.height));
+    f(r).copyTo(padded_(r));
+    return padded_;
+  };
+  if (!h264_) {
+    writer_.write(frame.size() == video_size_ ? frame : padded(frame));
     return;
   }
-  // The encoder takes continuous BGR of the video's size: grey is made colour, and a frame of
-  // another size (H.264 needs even sizes) is placed top-left on black.
+  // The encoder takes continuous BGR of the video's size: grey is made colour.
   cv::Mat bgr = frame;
   if (frame.type() == CV_8UC1) cv::cvtColor(frame, bgr, cv::COLOR_GRAY2BGR);
   else if (frame.type() != CV_8UC3) return;  // not a picture
-  if (bgr.size() != video_size_ || !bgr.isContinuous()) {
-    padded_.create(video_size_, CV_8UC3);
-    padded_.setTo(cv::Scalar::all(0));
-    const cv::Rect r(0, 0, std::min(bgr.cols, video_size_.width), std::min(bgr.rows, video_size_.height));
-    bgr(r).copyTo(padded_(r));
-    bgr = padded_;
-  }
+  if (bgr.size() != video_size_ || !bgr.isContinuous()) bgr = padded(bgr);
   h264_->write(bgr);
 }
 
