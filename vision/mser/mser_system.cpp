@@ -19,6 +19,11 @@ SegmenterParams with_feed_forward(SegmenterParams p) {
   return p;
 }
 
+// Grows `box` to hold pixel (x, y) (an empty box becomes that pixel).
+void include(cv::Rect* box, int x, int y) {
+  *box = box->area() ? (*box | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+}
+
 double iou(const cv::Rect& a, const cv::Rect& b) {
   const int inter = (a & b).area();
   const int uni = a.area() + b.area() - inter;
@@ -478,8 +483,7 @@ void MserSystem::update_objects() {
               const int64_t ow = owner_at(l[x]);
               if (ow < 0) continue;
               ++px_of[ow];
-              cv::Rect& b = owned_box[ow];
-              b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+              include(&owned_box[ow], x, y);
             }
         }
         std::vector<std::pair<int, int64_t>> owners;  // (-pixels, id): the largest first
@@ -531,8 +535,7 @@ void MserSystem::update_objects() {
               }
               c[x] = part_label[q];
               if (!f[x]) continue;
-              cv::Rect& b = part_box[q];
-              b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+              include(&part_box[q], x, y);
             }
           }
           for (size_t q = 0; q < owners.size(); ++q)
@@ -550,8 +553,7 @@ void MserSystem::update_objects() {
         for (int x = box.x; x < box.x + box.width; ++x) {
           if (c[x] != i || !f[x]) continue;
           ++fg_px;
-          cv::Rect& b = still[l[x]] ? still_box : moving_box;
-          b = b.area() ? (b | cv::Rect(x, y, 1, 1)) : cv::Rect(x, y, 1, 1);
+          include(still[l[x]] ? &still_box : &moving_box, x, y);
           still_px += still[l[x]];
         }
       }
