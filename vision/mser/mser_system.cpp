@@ -99,6 +99,7 @@ bool MserSystem::process(const cv::Mat& bgr, std::string* error) {
   auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   const auto t0 = Clock::now();
   if (!seg_.segment(bgr, &seg_out_, error)) return false;
+  frame_bgr_ = bgr;
   const auto t1 = Clock::now();
   region_ids_ = tracker_.update(seg_out_, &seg_.lines());
   const auto t2 = Clock::now();
@@ -165,10 +166,15 @@ void MserSystem::learn() {
   const KdTree2 tree(std::move(pts));
   const size_t before = candidates_.size();
   std::vector<int64_t> seen_this_frame(before, -1);
-  for (const Region& reg : seg_out_.regions) {
+  // Per region of this frame: the candidate it refined or added (-1: none, a speck or a second
+  // match of a candidate).
+  learned_as_.assign(seg_out_.regions.size(), -1);
+  for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
+    const Region& reg = seg_out_.regions[r];
     if (reg.size < p_.tracking.min_size) continue;
     const int e = before ? best_entry(candidates_, &tree, reg) : -1;
     if (e >= 0 && seen_this_frame[e] != frame_) {
+      learned_as_[r] = e;
       seen_this_frame[e] = frame_;
       Entry& m = candidates_[e];
       const float k = 1.0f / static_cast<float>(++m.count);
@@ -178,22 +184,52 @@ void MserSystem::learn() {
       m.height += k * (reg.height() - m.height);
       m.colour += k * (reg.mean - m.colour);
     } else if (e < 0) {
+      learned_as_[r] = static_cast<int>(candidates_.size());
       candidates_.push_back({reg.centroid, reg.width(), reg.height(), reg.mean, 1, 0.0});
     }
   }
   if (frame_ == p_.warmup_frames + p_.learn_frames) {
-    // The model's picture: every pixel in its region's mean colour, as last learned.
+    // Still: its matches stayed within `still_speed` px of it, plus 2 % of its size (a large
+    // region's centroid shifts as people cross it).
+    std::vector<char> kept(candidates_.size(), 0);
+    for (size_t i = 0; i < candidates_.size(); ++i) {
+      const Entry& m = candidates_[i];
+      if (2 * m.count >= p_.learn_frames && m.moved / std::max(1, m.count - 1) <= p_.still_speed + 0.02 * (m.width + m.height)) {
+        model_.push_back(m);
+        kept[i] = 1;
+      }
+    }
+    for (Entry& m : model_) m.origin = m.centroid;
+    // The model's picture: every pixel in its region's mean colour, as last learned, where that
+    // region is in the model (and on specks). A region left out (something moving while the
+    // model was learned: a robot driving off, someone walking) is not the scene: its pixels get
+    // no model colour and are handled as released ones (release_from_background), so what it
+    // uncovers when it moves on is taken into the model, and its own regions are not.
     model_image_.create(seg_out_.labels.size(), CV_32FC3);
     const int32_t* l = seg_out_.labels.ptr<int32_t>(0);
     cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
-    for (size_t i = 0; i < model_image_.total(); ++i) mi[i] = seg_out_.regions[l[i]].mean;
-    for (const Entry& m : candidates_)
-      // Still: its matches stayed within `still_speed` px of it, plus 2 % of its size (a large
-      // region's centroid shifts as people cross it).
-      if (2 * m.count >= p_.learn_frames &&
-          m.moved / std::max(1, m.count - 1) <= p_.still_speed + 0.02 * (m.width + m.height))
-        model_.push_back(m);
-    for (Entry& m : model_) m.origin = m.centroid;
+    std::vector<char> unknown(seg_out_.regions.size(), 0);
+    for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
+      const int e = learned_as_[r];
+      if (seg_out_.regions[r].size < p_.tracking.min_size || (e >= 0 && kept[static_cast<size_t>(e)])) continue;
+      unknown[r] = 1;
+      if (e >= 0) released_.push_back(candidates_[static_cast<size_t>(e)]);
+    }
+    if (p_.unknown_moving) {
+      uncovered_ = cv::Mat::zeros(model_image_.size(), CV_8U);
+      uint8_t* u = uncovered_.ptr<uint8_t>(0);
+      for (size_t i = 0; i < model_image_.total(); ++i) {
+        if (unknown[l[i]]) {
+          mi[i] = cv::Vec3f(0, 0, 0);
+          u[i] = 255;
+        } else {
+          mi[i] = seg_out_.regions[l[i]].mean;
+        }
+      }
+    } else {
+      released_.clear();
+      for (size_t i = 0; i < model_image_.total(); ++i) mi[i] = seg_out_.regions[l[i]].mean;
+    }
     candidates_.clear();
   }
 }
@@ -354,6 +390,69 @@ void MserSystem::classify() {
   uint8_t* f = fg_.ptr<uint8_t>(0);
   const size_t n = lab.total();
   for (size_t i = 0; i < n; ++i) f[i] = is_fg[l[i]] ? 255 : 0;
+  // A background region that spilled over places of another colour in the model's picture has
+  // merged with something of its colour in front (dark trousers with a dark laptop screen
+  // behind): those of its pixels are foreground, when there are at least a region's worth.
+  spilled_.assign(seg_out_.regions.size(), 0);
+  spill_.release();
+  if (p_.spill_colour > 0) {
+    std::vector<int> spill(seg_out_.regions.size(), 0);
+    const float limit = static_cast<float>(p_.spill_colour * p_.spill_colour);
+    const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
+    const uint8_t* u = uncovered_.empty() ? nullptr : uncovered_.ptr<uint8_t>(0);
+    const uint8_t* px = frame_bgr_.ptr<uint8_t>(0);
+    // Off the model: the region's mean and the pixel's own colour both far from the model's
+    // picture there (two background regions of different colours merged in this frame's
+    // segmentation have the model's colours pixel by pixel).
+    auto off = [&](size_t i) {
+      const int32_t r = l[i];
+      if (is_fg[r] || (u && u[i])) return false;
+      const cv::Vec3f d = mi[i] - seg_out_.regions[r].mean;
+      if (d.dot(d) <= limit) return false;
+      const cv::Vec3f e = mi[i] - cv::Vec3f(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+      return e.dot(e) > limit;
+    };
+    for (size_t i = 0; i < n; ++i) spill[l[i]] += off(i);
+    bool any = false;
+    // A merge leaves a good share of both: a region nearly all off the model is a background
+    // region found a little off its place, a sliver off a large one is noise.
+    for (size_t r = 0; r < spill.size(); ++r) {
+      const double share = static_cast<double>(spill[r]) / std::max(1, seg_out_.regions[r].size);
+      any |= (spilled_[r] = spill[r] >= p_.tracking.min_size && share >= p_.spill_share && share <= 1.0 - p_.spill_share);
+    }
+    if (any) {
+      // Only where it touches the foreground: the thing in front shows elsewhere too (the shirt
+      // above the trousers). A spill alone is a change of the scene, not someone in front.
+      cv::Mat spill_mask = cv::Mat::zeros(lab.size(), CV_8U);
+      uint8_t* sm = spill_mask.ptr<uint8_t>(0);
+      for (size_t i = 0; i < n; ++i) sm[i] = spilled_[l[i]] && off(i) ? 255 : 0;
+      cv::Mat cc, near_fg;
+      const int ncc = cv::connectedComponents(spill_mask, cc, 8, CV_32S);
+      {
+        // ...of an object's size without the spill (not a speck of reshaped wall texture).
+        cv::Mat fcc, fstats, fcent;
+        const int nf = cv::connectedComponentsWithStats(fg_, fcc, fstats, fcent, 8, CV_32S);
+        const double min_area = p_.min_object_area * static_cast<double>(n);
+        cv::Mat big = cv::Mat::zeros(lab.size(), CV_8U);
+        std::vector<char> large(static_cast<size_t>(nf), 0);
+        for (int k = 1; k < nf; ++k) large[k] = fstats.at<int>(k, cv::CC_STAT_AREA) >= min_area;
+        const int32_t* fc = fcc.ptr<int32_t>(0);
+        uint8_t* b = big.ptr<uint8_t>(0);
+        for (size_t i = 0; i < n; ++i) b[i] = large[fc[i]] ? 255 : 0;
+        cv::dilate(big, near_fg, cv::Mat::ones(3, 3, CV_8U));
+      }
+      std::vector<char> touches(static_cast<size_t>(ncc), 0);
+      const int32_t* c = cc.ptr<int32_t>(0);
+      const uint8_t* nf = near_fg.ptr<uint8_t>(0);
+      for (size_t i = 0; i < n; ++i)
+        if (c[i] > 0 && nf[i]) touches[c[i]] = 1;
+      std::fill(spilled_.begin(), spilled_.end(), 0);
+      spill_ = cv::Mat::zeros(lab.size(), CV_8U);
+      uint8_t* so = spill_.ptr<uint8_t>(0);
+      for (size_t i = 0; i < n; ++i)
+        if (c[i] > 0 && touches[c[i]]) f[i] = so[i] = 255, spilled_[l[i]] = 1;
+    }
+  }
 }
 
 std::vector<std::vector<ModelRegion>> MserSystem::box_regions(const cv::Mat& cc, const std::vector<int>& box_of) const {
@@ -544,25 +643,32 @@ void MserSystem::update_objects() {
         }
       }
       // Foreground (before closing) within the component, still and moving.
-      int fg_px = 0, still_px = 0;
+      int fg_px = 0, still_px = 0, spill_px = 0;
       cv::Rect still_box, moving_box;
       for (int y = box.y; y < box.y + box.height; ++y) {
         const int32_t* c = cc.ptr<int32_t>(y);
         const uint8_t* f = fg_.ptr<uint8_t>(y);
+        const uint8_t* sp = spill_.empty() ? nullptr : spill_.ptr<uint8_t>(y);
         const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
         for (int x = box.x; x < box.x + box.width; ++x) {
           if (c[x] != i || !f[x]) continue;
           ++fg_px;
+          if (sp && sp[x]) {  // with whatever it touches: neither still nor moving
+            ++spill_px;
+            continue;
+          }
           include(still[l[x]] ? &still_box : &moving_box, x, y);
           still_px += still[l[x]];
         }
       }
+      // Spilled pixels only go with something: they make no object of their own.
+      if (fg_px - spill_px < min_still) continue;
       // Smaller than an object: only a thing lying still where small things may lie.
-      if (area < min_area && (10 * still_px < 9 * fg_px || !on_small_mask(box))) continue;
+      if (area < min_area && (10 * still_px < 9 * (fg_px - spill_px) || !on_small_mask(box))) continue;
       // Something still beside something moving, each an object's size (a bag just put down
       // beside the person walking off, a walker passing in front of a parked robot), or a small
       // still thing where small things may lie (a book put down on a table): two objects.
-      if ((still_px >= min_area || (still_px >= min_still && on_small_mask(still_box))) && fg_px - still_px >= min_area) {
+      if ((still_px >= min_area || (still_px >= min_still && on_small_mask(still_box))) && fg_px - spill_px - still_px >= min_area) {
         const int part = labels++;
         box_of.push_back(-1);
         for (int y = still_box.y; y < still_box.y + still_box.height; ++y) {

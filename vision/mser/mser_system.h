@@ -64,6 +64,18 @@ struct MserSystemParams {
   double bg_size_ratio = 1.6;
   double bg_colour = 25;
   double adapt = 0.05;
+  // Regions of the last learning frame left out of the model (they moved while it was learned)
+  // leave no colour in the model's picture: what they uncover is taken into the model (see
+  // release_from_background). Off: their colours stay in the picture, and the floor they
+  // uncover is foreground until absorb_frames (a ghost where a robot stood at the start).
+  bool unknown_moving = false;
+  // A background region's pixels whose colour in the model's picture is farther than this from
+  // the region's mean and from the pixel's own colour are foreground (it merged with something
+  // of its colour in front), when they are a share of the region (spill_share) and touch an
+  // object's worth of foreground; 0: off. Off by default: on the lab it helps only together
+  // with unknown_moving, which costs identity switches in the corridor (docs/MSER.md).
+  double spill_colour = 0;
+  double spill_share = 0.2;  // ...when they are between this share of the region and 1 minus it
   int absorb_frames = 1800;  // 2 min at 15 fps: a bag left in view stays foreground for the rules
   int close_px = 7;
   double min_object_area = 0.002;  // of the image
@@ -200,8 +212,12 @@ class MserSystem {
   Segmentation seg_out_;
   std::vector<int64_t> region_ids_;
   std::vector<Entry> model_, candidates_;
+  cv::Mat spill_;                // CV_8U: this frame's spilled foreground pixels (empty: none)
+  std::vector<char> spilled_;    // per region of this frame: background that spilled over other colours
+  std::vector<int> learned_as_;  // learning: the candidate each region of this frame refined or added
   std::map<int64_t, TrackInfo> info_;
   cv::Mat fg_;
+  cv::Mat frame_bgr_;  // this frame (a header on the caller's image, for classify)
   std::vector<ImageObject> objects_;
   int64_t next_object_ = 1;
   int64_t frame_ = 0;
