@@ -169,6 +169,7 @@ void MserSystem::learn() {
   // Per region of this frame: the candidate it refined or added (-1: none, a speck or a second
   // match of a candidate).
   learned_as_.assign(seg_out_.regions.size(), -1);
+  if (frame_ == p_.warmup_frames + 1 && p_.unknown_moving) frame_bgr_.copyTo(learn_first_);
   for (size_t r = 0; r < seg_out_.regions.size(); ++r) {
     const Region& reg = seg_out_.regions[r];
     if (reg.size < p_.tracking.min_size) continue;
@@ -215,11 +216,18 @@ void MserSystem::learn() {
       unknown[r] = 1;
       if (e >= 0) released_.push_back(candidates_[static_cast<size_t>(e)]);
     }
-    if (p_.unknown_moving) {
+    if (p_.unknown_moving && learn_first_.size() == frame_bgr_.size()) {
       uncovered_ = cv::Mat::zeros(model_image_.size(), CV_8U);
       uint8_t* u = uncovered_.ptr<uint8_t>(0);
+      // ...where the picture changed over the learning frames (something moved there; a thin
+      // region whose centroid wobbled over a still scene did not change it).
+      const uint8_t* a = learn_first_.ptr<uint8_t>(0);
+      const uint8_t* b = frame_bgr_.ptr<uint8_t>(0);
+      const int changed = static_cast<int>(p_.bg_colour);
       for (size_t i = 0; i < model_image_.total(); ++i) {
-        if (unknown[l[i]]) {
+        const bool moved_here = std::abs(a[3 * i] - b[3 * i]) > changed || std::abs(a[3 * i + 1] - b[3 * i + 1]) > changed ||
+                                std::abs(a[3 * i + 2] - b[3 * i + 2]) > changed;
+        if (unknown[l[i]] && moved_here) {
           mi[i] = cv::Vec3f(0, 0, 0);
           u[i] = 255;
         } else {
@@ -231,7 +239,31 @@ void MserSystem::learn() {
       for (size_t i = 0; i < model_image_.total(); ++i) mi[i] = seg_out_.regions[l[i]].mean;
     }
     candidates_.clear();
+    learn_first_.release();
   }
+}
+
+bool MserSystem::colour_touching(int r) const {
+  // The region's outer boundary: pixels of other regions 4-next to it, not released, whose
+  // model colour is the region's (the floor it continues).
+  const Region& reg = seg_out_.regions[static_cast<size_t>(r)];
+  const cv::Mat& lab = seg_out_.labels;
+  const double limit = p_.bg_colour * p_.bg_colour;
+  const cv::Rect b = cv::Rect(reg.bbox.x - 1, reg.bbox.y - 1, reg.bbox.width + 2, reg.bbox.height + 2) & cv::Rect(0, 0, lab.cols, lab.rows);
+  for (int y = b.y; y < b.br().y; ++y) {
+    const int32_t* l = lab.ptr<int32_t>(y);
+    const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(y);
+    const uint8_t* u = uncovered_.ptr<uint8_t>(y);
+    for (int x = b.x; x < b.br().x; ++x) {
+      if (l[x] == r || u[x]) continue;
+      const bool next = (x > 0 && l[x - 1] == r) || (x + 1 < lab.cols && l[x + 1] == r) ||
+                        (y > 0 && lab.ptr<int32_t>(y - 1)[x] == r) || (y + 1 < lab.rows && lab.ptr<int32_t>(y + 1)[x] == r);
+      if (!next) continue;
+      const cv::Vec3f d = mi[x] - reg.mean;
+      if (d.dot(d) <= limit) return true;
+    }
+  }
+  return false;
 }
 
 bool MserSystem::colour_beside(const Region& reg) const {
@@ -359,7 +391,7 @@ void MserSystem::classify() {
       // as learned: place, size and colour), and of a colour the model has beside it (the floor
       // or the wall that was behind it).
       if (!on_released.empty() && 5 * on_released[r] >= 4 * reg.size && best_entry(released_, nullptr, reg) < 0 &&
-          colour_beside(reg)) {
+          (p_.uncover_touching ? colour_touching(static_cast<int>(r)) : colour_beside(reg))) {
         absorb.push_back({reg.centroid, w, h, reg.mean, 1, 0.0});
         uncovered_regions.push_back(static_cast<int>(r));
         t->still_foreground = 0;

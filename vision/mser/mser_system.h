@@ -64,17 +64,24 @@ struct MserSystemParams {
   double bg_size_ratio = 1.6;
   double bg_colour = 25;
   double adapt = 0.05;
-  // Regions of the last learning frame left out of the model (they moved while it was learned)
-  // leave no colour in the model's picture: what they uncover is taken into the model (see
-  // release_from_background). Off: their colours stay in the picture, and the floor they
-  // uncover is foreground until absorb_frames (a ghost where a robot stood at the start).
-  bool unknown_moving = false;
+  // Regions of the last learning frame left out of the model (they moved while it was learned),
+  // on pixels whose colour changed over the learning frames (by more than bg_colour in a
+  // channel), leave no colour in the model's picture: what they uncover is taken into the model
+  // as what a released thing uncovers (see release_from_background). Off: their colours stay in
+  // the picture, and the floor they uncover is foreground until absorb_frames (a ghost where a
+  // robot stood at the start).
+  bool unknown_moving = true;
+  // What a released thing uncovers is taken into the model when the model has its colour on a
+  // pixel touching it (the floor it continues; uncovered pixels are learned from the edge in),
+  // not anywhere around its box (a bag put down where someone walked while the model was learned
+  // would be taken in at once).
+  bool uncover_touching = true;
   // A background region's pixels whose colour in the model's picture is farther than this from
   // the region's mean and from the pixel's own colour are foreground (it merged with something
-  // of its colour in front), when they are a share of the region (spill_share) and touch an
-  // object's worth of foreground; 0: off. Off by default: on the lab it helps only together
-  // with unknown_moving, which costs identity switches in the corridor (docs/MSER.md).
-  double spill_colour = 0;
+  // of its colour in front: dark trousers with a dark laptop screen behind), when they are a
+  // share of the region (spill_share) and touch a foreground component of an object's size;
+  // they make no object of their own and count neither as still nor as moving. 0: off.
+  double spill_colour = 40;
   double spill_share = 0.2;  // ...when they are between this share of the region and 1 minus it
   int absorb_frames = 1800;  // 2 min at 15 fps: a bag left in view stays foreground for the rules
   int close_px = 7;
@@ -202,6 +209,8 @@ class MserSystem {
   int best_entry(const std::vector<Entry>& model, const class KdTree2* tree, const Region& reg) const;
   // A colour the model has on unreleased pixels around the region's box.
   bool colour_beside(const Region& reg) const;
+  // The model's colour for the region's mean on an unreleased pixel touching it.
+  bool colour_touching(int r) const;
   void update_objects();
   // Per box, the foreground regions of its component, as the object model sees them.
   std::vector<std::vector<ModelRegion>> box_regions(const cv::Mat& components, const std::vector<int>& box_of_component) const;
@@ -215,6 +224,7 @@ class MserSystem {
   cv::Mat spill_;                // CV_8U: this frame's spilled foreground pixels (empty: none)
   std::vector<char> spilled_;    // per region of this frame: background that spilled over other colours
   std::vector<int> learned_as_;  // learning: the candidate each region of this frame refined or added
+  cv::Mat learn_first_;          // learning: its first frame (unknown_moving)
   std::map<int64_t, TrackInfo> info_;
   cv::Mat fg_;
   cv::Mat frame_bgr_;  // this frame (a header on the caller's image, for classify)
