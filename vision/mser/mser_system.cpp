@@ -444,7 +444,13 @@ void MserSystem::classify() {
       const cv::Vec3f e = mi[i] - cv::Vec3f(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
       return e.dot(e) > limit;
     };
-    for (size_t i = 0; i < n; ++i) spill[l[i]] += off(i);
+    // Each pixel tested once: the test's result is the spill mask's candidates.
+    cv::Mat spill_mask(lab.size(), CV_8U);
+    uint8_t* sm = spill_mask.ptr<uint8_t>(0);
+    for (size_t i = 0; i < n; ++i) {
+      sm[i] = off(i) ? 255 : 0;
+      spill[l[i]] += sm[i] != 0;
+    }
     bool any = false;
     // A merge leaves a good share of both: a region nearly all off the model is a background
     // region found a little off its place, a sliver off a large one is noise.
@@ -455,9 +461,8 @@ void MserSystem::classify() {
     if (any) {
       // Only where it touches the foreground: the thing in front shows elsewhere too (the shirt
       // above the trousers). A spill alone is a change of the scene, not someone in front.
-      cv::Mat spill_mask = cv::Mat::zeros(lab.size(), CV_8U);
-      uint8_t* sm = spill_mask.ptr<uint8_t>(0);
-      for (size_t i = 0; i < n; ++i) sm[i] = spilled_[l[i]] && off(i) ? 255 : 0;
+      for (size_t i = 0; i < n; ++i)
+        if (!spilled_[l[i]]) sm[i] = 0;
       cv::Mat cc, near_fg;
       const int ncc = cv::connectedComponents(spill_mask, cc, 8, CV_32S);
       {
