@@ -428,7 +428,11 @@ void MserSystem::classify() {
   spilled_.assign(seg_out_.regions.size(), 0);
   spill_.release();
   if (p_.spill_colour > 0) {
-    std::vector<int> spill(seg_out_.regions.size(), 0);
+    const size_t nr = seg_out_.regions.size();
+    // Only a background region of at least a region's size can spill.
+    std::vector<char> can(nr, 0);
+    for (size_t r = 0; r < nr; ++r) can[r] = !is_fg[r] && seg_out_.regions[r].size >= p_.tracking.min_size;
+    std::vector<int> spill(nr, 0);
     const float limit = static_cast<float>(p_.spill_colour * p_.spill_colour);
     const cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
     const uint8_t* u = uncovered_.empty() ? nullptr : uncovered_.ptr<uint8_t>(0);
@@ -436,58 +440,74 @@ void MserSystem::classify() {
     // Off the model: the region's mean and the pixel's own colour both far from the model's
     // picture there (two background regions of different colours merged in this frame's
     // segmentation have the model's colours pixel by pixel).
-    auto off = [&](size_t i) {
-      const int32_t r = l[i];
-      if (is_fg[r] || (u && u[i])) return false;
-      const cv::Vec3f d = mi[i] - seg_out_.regions[r].mean;
-      if (d.dot(d) <= limit) return false;
-      const cv::Vec3f e = mi[i] - cv::Vec3f(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
-      return e.dot(e) > limit;
-    };
-    // Each pixel tested once: the test's result is the spill mask's candidates.
     cv::Mat spill_mask(lab.size(), CV_8U);
     uint8_t* sm = spill_mask.ptr<uint8_t>(0);
     for (size_t i = 0; i < n; ++i) {
-      sm[i] = off(i) ? 255 : 0;
-      spill[l[i]] += sm[i] != 0;
+      const int32_t r = l[i];
+      sm[i] = 0;
+      if (!can[r] || (u && u[i])) continue;
+      const cv::Vec3f d = mi[i] - seg_out_.regions[r].mean;
+      if (d.dot(d) <= limit) continue;
+      const cv::Vec3f e = mi[i] - cv::Vec3f(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+      if (e.dot(e) <= limit) continue;
+      sm[i] = 255;
+      ++spill[r];
     }
-    bool any = false;
     // A merge leaves a good share of both: a region nearly all off the model is a background
     // region found a little off its place, a sliver off a large one is noise.
-    for (size_t r = 0; r < spill.size(); ++r) {
+    cv::Rect roi;  // the spilled regions' box
+    for (size_t r = 0; r < nr; ++r) {
       const double share = static_cast<double>(spill[r]) / std::max(1, seg_out_.regions[r].size);
-      any |= (spilled_[r] = spill[r] >= p_.tracking.min_size && share >= p_.spill_share && share <= 1.0 - p_.spill_share);
+      spilled_[r] = spill[r] >= p_.tracking.min_size && share >= p_.spill_share && share <= 1.0 - p_.spill_share;
+      if (spilled_[r]) roi = roi.area() > 0 ? roi | seg_out_.regions[r].bbox : seg_out_.regions[r].bbox;
     }
-    if (any) {
+    if (roi.area() > 0) {
       // Only where it touches the foreground: the thing in front shows elsewhere too (the shirt
-      // above the trousers). A spill alone is a change of the scene, not someone in front.
-      for (size_t i = 0; i < n; ++i)
-        if (!spilled_[l[i]]) sm[i] = 0;
-      cv::Mat cc, near_fg;
-      const int ncc = cv::connectedComponents(spill_mask, cc, 8, CV_32S);
-      {
-        // ...of an object's size without the spill (not a speck of reshaped wall texture).
-        cv::Mat fcc, fstats, fcent;
-        const int nf = cv::connectedComponentsWithStats(fg_, fcc, fstats, fcent, 8, CV_32S);
-        const double min_area = p_.min_object_area * static_cast<double>(n);
-        cv::Mat big = cv::Mat::zeros(lab.size(), CV_8U);
-        std::vector<char> large(static_cast<size_t>(nf), 0);
-        for (int k = 1; k < nf; ++k) large[k] = fstats.at<int>(k, cv::CC_STAT_AREA) >= min_area;
-        const int32_t* fc = fcc.ptr<int32_t>(0);
-        uint8_t* b = big.ptr<uint8_t>(0);
-        for (size_t i = 0; i < n; ++i) b[i] = large[fc[i]] ? 255 : 0;
-        cv::dilate(big, near_fg, cv::Mat::ones(3, 3, CV_8U));
+      // above the trousers). A spill alone is a change of the scene, not someone in front. All
+      // of the work is in the spilled regions' box but the foreground's sizes.
+      for (int y = roi.y; y < roi.br().y; ++y) {
+        uint8_t* m = spill_mask.ptr<uint8_t>(y);
+        const int32_t* lr = lab.ptr<int32_t>(y);
+        for (int x = roi.x; x < roi.br().x; ++x)
+          if (!spilled_[lr[x]]) m[x] = 0;
       }
+      cv::Mat cc;
+      const int ncc = cv::connectedComponents(spill_mask(roi), cc, 8, CV_32S);
+      // ...of an object's size without the spill (not a speck of reshaped wall texture).
+      cv::Mat fcc;
+      const int nf = cv::connectedComponents(fg_, fcc, 8, CV_32S);
+      std::vector<int> area(static_cast<size_t>(nf), 0);
+      const int32_t* fc = fcc.ptr<int32_t>(0);
+      for (size_t i = 0; i < n; ++i) ++area[fc[i]];
+      const double min_area = p_.min_object_area * static_cast<double>(n);
+      std::vector<char> large(static_cast<size_t>(nf), 0);
+      for (int k = 1; k < nf; ++k) large[k] = area[k] >= min_area;
       std::vector<char> touches(static_cast<size_t>(ncc), 0);
-      const int32_t* c = cc.ptr<int32_t>(0);
-      const uint8_t* nf = near_fg.ptr<uint8_t>(0);
-      for (size_t i = 0; i < n; ++i)
-        if (c[i] > 0 && nf[i]) touches[c[i]] = 1;
+      for (int y = 0; y < roi.height; ++y) {
+        const int32_t* c = cc.ptr<int32_t>(y);
+        for (int x = 0; x < roi.width; ++x) {
+          if (c[x] == 0 || touches[c[x]]) continue;
+          const int gx = roi.x + x, gy = roi.y + y;
+          for (int yy = std::max(0, gy - 1); yy <= std::min(lab.rows - 1, gy + 1) && !touches[c[x]]; ++yy) {
+            const int32_t* fr = fcc.ptr<int32_t>(yy);
+            for (int xx = std::max(0, gx - 1); xx <= std::min(lab.cols - 1, gx + 1); ++xx)
+              if (large[fr[xx]]) {
+                touches[c[x]] = 1;
+                break;
+              }
+          }
+        }
+      }
       std::fill(spilled_.begin(), spilled_.end(), 0);
       spill_ = cv::Mat::zeros(lab.size(), CV_8U);
-      uint8_t* so = spill_.ptr<uint8_t>(0);
-      for (size_t i = 0; i < n; ++i)
-        if (c[i] > 0 && touches[c[i]]) f[i] = so[i] = 255, spilled_[l[i]] = 1;
+      for (int y = 0; y < roi.height; ++y) {
+        const int32_t* c = cc.ptr<int32_t>(y);
+        const int32_t* lr = lab.ptr<int32_t>(roi.y + y) + roi.x;
+        uint8_t* fr = fg_.ptr<uint8_t>(roi.y + y) + roi.x;
+        uint8_t* so = spill_.ptr<uint8_t>(roi.y + y) + roi.x;
+        for (int x = 0; x < roi.width; ++x)
+          if (c[x] > 0 && touches[c[x]]) fr[x] = so[x] = 255, spilled_[lr[x]] = 1;
+      }
     }
   }
 }
