@@ -541,6 +541,41 @@ TEST(MserSystem, TrousersMergedWithADarkBackgroundThingOfTheirColourAreForegroun
   }
 }
 
+// The same trousers when the person's component also holds a still thing (a bag put down
+// beside the shirt: the component is split into the still part and the moving one). The spilled
+// trousers go with the part whose columns they share, the moving person, so the person's box
+// still reaches the screen; the bag's box does not take them.
+TEST(MserSystem, SpilledTrousersStayWithTheMovingPersonWhenAStillThingIsSplitOff) {
+  auto frame = [](int f) {
+    cv::Mat img(120, 160, CV_8UC3);
+    cv::RNG rng(f * 7 + 1);
+    rng.fill(img, cv::RNG::UNIFORM, 110, 116);
+    cv::rectangle(img, cv::Rect(70, 60, 20, 30), cv::Scalar(60, 60, 60), cv::FILLED);  // the screen
+    if (f >= 25) {
+      const int x = 60 + (f - 25) / 3;  // drifting right: moving
+      cv::rectangle(img, cv::Rect(x, 16, 16, 24), cv::Scalar(40, 160, 50), cv::FILLED);      // shirt
+      cv::rectangle(img, cv::Rect(x + 2, 40, 12, 22), cv::Scalar(60, 60, 60), cv::FILLED);  // trousers, into the screen
+      cv::rectangle(img, cv::Rect(82, 30, 8, 10), cv::Scalar(40, 40, 170), cv::FILLED);     // a bag, still
+    }
+    return img;
+  };
+  MserSystem sys;
+  int reaching = 0, bag_alone = 0, frames = 0;
+  for (int f = 0; f < 45; ++f) {
+    ASSERT_TRUE(sys.process(frame(f)));
+    if (f < 38) continue;
+    ++frames;
+    const int x = 60 + (f - 25) / 3;
+    for (const ImageObject& o : sys.objects()) {
+      const bool person = o.box.contains({x + 8, 28}), bag = o.box.contains({86, 35});
+      if (person && !bag && o.box.br().y >= 58 && o.box.br().y <= 64) ++reaching;
+      if (bag && !person && o.box.br().y <= 42) ++bag_alone;
+    }
+  }
+  EXPECT_GE(reaching, frames - 1) << "the trousers belong to the moving person";
+  EXPECT_GE(bag_alone, frames - 1) << "the still bag is an object of its own, without the trousers";
+}
+
 // vigil track --pipeline mser on a mono video: MOTChallenge lines for the walking figure, and a
 // missing video refused naming it.
 // The MOT lines of `vigil track` on the synthetic walk video: each box overlaps the figure

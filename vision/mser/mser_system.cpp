@@ -701,7 +701,7 @@ void MserSystem::update_objects() {
       }
       // Foreground (before closing) within the component, still and moving.
       int fg_px = 0, still_px = 0, spill_px = 0;
-      cv::Rect still_box, moving_box;
+      cv::Rect still_box, moving_box, spill_box;
       for (int y = box.y; y < box.y + box.height; ++y) {
         const int32_t* c = cc.ptr<int32_t>(y);
         const uint8_t* f = fg_.ptr<uint8_t>(y);
@@ -712,6 +712,7 @@ void MserSystem::update_objects() {
           ++fg_px;
           if (sp && sp[x]) {  // with whatever it touches: neither still nor moving
             ++spill_px;
+            include(&spill_box, x, y);
             continue;
           }
           include(still[l[x]] ? &still_box : &moving_box, x, y);
@@ -728,12 +729,25 @@ void MserSystem::update_objects() {
       if ((still_px >= min_area || (still_px >= min_still && on_small_mask(still_box))) && fg_px - spill_px - still_px >= min_area) {
         const int part = labels++;
         box_of.push_back(-1);
+        // The spill goes with the part it lies under or over (the columns they share): the legs
+        // below a walker's shirt, with the walker, not with a thing put down beside.
+        auto shared = [&](const cv::Rect& b) { return std::min(b.br().x, spill_box.br().x) - std::max(b.x, spill_box.x); };
+        const bool spill_still = spill_px > 0 && shared(still_box) > shared(moving_box);
         for (int y = still_box.y; y < still_box.y + still_box.height; ++y) {
           int32_t* c = cc.ptr<int32_t>(y);
           const uint8_t* f = fg_.ptr<uint8_t>(y);
           const int32_t* l = seg_out_.labels.ptr<int32_t>(y);
           for (int x = still_box.x; x < still_box.x + still_box.width; ++x)
-            if (c[x] == i && f[x] && still[l[x]]) c[x] = part;
+            if (c[x] == i && f[x] && still[l[x]] && !(spill_.data && spill_.at<uint8_t>(y, x))) c[x] = part;
+        }
+        if (spill_px > 0) {
+          for (int y = spill_box.y; y < spill_box.br().y; ++y) {
+            int32_t* c = cc.ptr<int32_t>(y);
+            const uint8_t* sp = spill_.ptr<uint8_t>(y);
+            for (int x = spill_box.x; x < spill_box.br().x; ++x)
+              if (c[x] == i && sp[x]) c[x] = spill_still ? part : i;
+          }
+          (spill_still ? still_box : moving_box) |= spill_box;
         }
         for (const auto& [b, label] : {std::pair{moving_box, i}, std::pair{still_box, part}}) add_box(label, b, label == part, -1);
         continue;
