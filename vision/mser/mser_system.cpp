@@ -327,7 +327,8 @@ void MserSystem::classify() {
     on_released.assign(seg_out_.regions.size(), 0);
     const int32_t* l = lab.ptr<int32_t>(0);
     const uint8_t* u = uncovered_.ptr<uint8_t>(0);
-    for (size_t i = 0; i < lab.total(); ++i) on_released[l[i]] += u[i] != 0;
+    for (size_t i = 0; i < lab.total(); ++i)
+      if (u[i]) ++on_released[l[i]];
   }
   std::vector<int> uncovered_regions;
   {
@@ -411,12 +412,15 @@ void MserSystem::classify() {
   if (!uncovered_regions.empty()) {
     // Those pixels are the scene's again, in the colours they now show.
     std::vector<char> back(seg_out_.regions.size(), 0);
-    for (int r : uncovered_regions) back[r] = 1;
-    const int32_t* l = lab.ptr<int32_t>(0);
-    uint8_t* u = uncovered_.ptr<uint8_t>(0);
-    cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(0);
-    for (size_t i = 0; i < lab.total(); ++i)
-      if (back[l[i]]) u[i] = 0, mi[i] = seg_out_.regions[l[i]].mean;
+    cv::Rect box = seg_out_.regions[uncovered_regions.front()].bbox;  // theirs (all their pixels)
+    for (int r : uncovered_regions) back[r] = 1, box |= seg_out_.regions[r].bbox;
+    for (int y = box.y; y < box.br().y; ++y) {
+      const int32_t* l = lab.ptr<int32_t>(y);
+      uint8_t* u = uncovered_.ptr<uint8_t>(y);
+      cv::Vec3f* mi = model_image_.ptr<cv::Vec3f>(y);
+      for (int x = box.x; x < box.br().x; ++x)
+        if (back[l[x]]) u[x] = 0, mi[x] = seg_out_.regions[l[x]].mean;
+    }
   }
   const int32_t* l = lab.ptr<int32_t>(0);
   uint8_t* f = fg_.ptr<uint8_t>(0);
