@@ -500,6 +500,30 @@ TEST(MserSystem, TwoPeopleMergedInTheImageStayTwoObjectsByWhoseRegionsTheyAre) {
   }
 }
 
+// Feeds frames 0 to n - 1 to the system, and calls check(f) after each from `from` on.
+template <class Frame, class Check>
+void feed(MserSystem* sys, int n, int from, const Frame& frame, const Check& check) {
+  for (int f = 0; f < n; ++f) {
+    ASSERT_TRUE(sys->process(frame(f))) << "frame " << f;
+    if (f >= from) check(f);
+  }
+}
+
+// A noisy wall with a dark screen on it (a laptop's, 20 x 30 px at (70, 60)), 160 x 120.
+cv::Mat screen_scene(int seed) {
+  cv::Mat img(120, 160, CV_8UC3);
+  cv::RNG rng(seed);
+  rng.fill(img, cv::RNG::UNIFORM, 110, 116);
+  cv::rectangle(img, cv::Rect(70, 60, 20, 30), cv::Scalar(60, 60, 60), cv::FILLED);
+  return img;
+}
+
+// A green shirt (16 x 24 px from (x, 16)) over trousers of the screen's colour reaching down into it.
+void draw_dark_trousered_person(cv::Mat* img, int x) {
+  cv::rectangle(*img, cv::Rect(x, 16, 16, 24), cv::Scalar(40, 160, 50), cv::FILLED);
+  cv::rectangle(*img, cv::Rect(x + 2, 40, 12, 22), cv::Scalar(60, 60, 60), cv::FILLED);
+}
+
 // Dark trousers in front of a dark screen learned into the background (a laptop on a table):
 // the segmentation joins them into the screen's region, which matches its model entry. Those of
 // its pixels where the model's picture shows the wall are foreground, so the person's object
@@ -507,14 +531,8 @@ TEST(MserSystem, TwoPeopleMergedInTheImageStayTwoObjectsByWhoseRegionsTheyAre) {
 // stays background either way. (spill_colour is off by default; docs/MSER.md.)
 TEST(MserSystem, TrousersMergedWithADarkBackgroundThingOfTheirColourAreForeground) {
   auto frame = [](int f) {
-    cv::Mat img(120, 160, CV_8UC3);
-    cv::RNG rng(f * 5 + 3);
-    rng.fill(img, cv::RNG::UNIFORM, 110, 116);
-    cv::rectangle(img, cv::Rect(70, 60, 20, 30), cv::Scalar(60, 60, 60), cv::FILLED);  // the screen
-    if (f >= 25) {
-      cv::rectangle(img, cv::Rect(64, 16, 16, 24), cv::Scalar(40, 160, 50), cv::FILLED);  // shirt
-      cv::rectangle(img, cv::Rect(66, 40, 12, 22), cv::Scalar(60, 60, 60), cv::FILLED);   // trousers, into the screen
-    }
+    cv::Mat img = screen_scene(f * 5 + 3);
+    if (f >= 25) draw_dark_trousered_person(&img, 64);
     return img;
   };
   for (const double spill : {40.0, 0.0}) {
@@ -522,9 +540,7 @@ TEST(MserSystem, TrousersMergedWithADarkBackgroundThingOfTheirColourAreForegroun
     p.spill_colour = spill;
     MserSystem sys(p);
     int reaching = 0, frames = 0;
-    for (int f = 0; f < 45; ++f) {
-      ASSERT_TRUE(sys.process(frame(f)));
-      if (f < 32) continue;
+    feed(&sys, 45, 32, frame, [&](int f) {
       ++frames;
       const cv::Mat& fg = sys.foreground();
       EXPECT_EQ(fg.at<uint8_t>(80, 82), 0) << "the screen below the trousers is background, frame " << f;
@@ -532,7 +548,7 @@ TEST(MserSystem, TrousersMergedWithADarkBackgroundThingOfTheirColourAreForegroun
       for (const ImageObject& o : sys.objects()) {
         if (o.box.contains({72, 28}) && o.box.y + o.box.height >= 58 && o.box.y + o.box.height <= 64 && fg.at<uint8_t>(50, 72) == 255) ++reaching;
       }
-    }
+    });
     if (spill > 0) {
       EXPECT_GE(reaching, frames - 1) << "the trousers belong to the person";
     } else {
@@ -565,13 +581,11 @@ TEST(MserSystem, WhatMovedWhileTheModelWasLearnedLeavesNoGhost) {
     p.unknown_moving = unknown_moving;
     MserSystem sys(p);
     int ghost = 0, frames = 0;
-    for (int f = 0; f < 60; ++f) {
-      ASSERT_TRUE(sys.process(frame(f)));
-      if (f < 45) continue;
+    feed(&sys, 60, 45, frame, [&](int) {
       ++frames;
       ghost += sys.foreground().at<uint8_t>(50, 70) != 0;
       for (const ImageObject& o : sys.objects()) ghost += o.box.contains({70, 50}) ? 100 : 0;
-    }
+    });
     if (unknown_moving) {
       EXPECT_EQ(ghost, 0) << "the uncovered tile is floor";
     } else {
@@ -586,23 +600,16 @@ TEST(MserSystem, WhatMovedWhileTheModelWasLearnedLeavesNoGhost) {
 // still reaches the screen; the bag's box does not take them.
 TEST(MserSystem, SpilledTrousersStayWithTheMovingPersonWhenAStillThingIsSplitOff) {
   auto frame = [](int f) {
-    cv::Mat img(120, 160, CV_8UC3);
-    cv::RNG rng(f * 7 + 1);
-    rng.fill(img, cv::RNG::UNIFORM, 110, 116);
-    cv::rectangle(img, cv::Rect(70, 60, 20, 30), cv::Scalar(60, 60, 60), cv::FILLED);  // the screen
+    cv::Mat img = screen_scene(f * 7 + 1);
     if (f >= 25) {
-      const int x = 60 + (f - 25) / 3;  // drifting right: moving
-      cv::rectangle(img, cv::Rect(x, 16, 16, 24), cv::Scalar(40, 160, 50), cv::FILLED);      // shirt
-      cv::rectangle(img, cv::Rect(x + 2, 40, 12, 22), cv::Scalar(60, 60, 60), cv::FILLED);  // trousers, into the screen
-      cv::rectangle(img, cv::Rect(82, 30, 8, 10), cv::Scalar(40, 40, 170), cv::FILLED);     // a bag, still
+      draw_dark_trousered_person(&img, 60 + (f - 25) / 3);  // drifting right: moving
+      cv::rectangle(img, cv::Rect(82, 30, 8, 10), cv::Scalar(40, 40, 170), cv::FILLED);  // a bag, still
     }
     return img;
   };
   MserSystem sys;
   int reaching = 0, bag_alone = 0, frames = 0;
-  for (int f = 0; f < 45; ++f) {
-    ASSERT_TRUE(sys.process(frame(f)));
-    if (f < 38) continue;
+  feed(&sys, 45, 38, frame, [&](int f) {
     ++frames;
     const int x = 60 + (f - 25) / 3;
     for (const ImageObject& o : sys.objects()) {
@@ -610,7 +617,7 @@ TEST(MserSystem, SpilledTrousersStayWithTheMovingPersonWhenAStillThingIsSplitOff
       if (person && !bag && o.box.br().y >= 58 && o.box.br().y <= 64) ++reaching;
       if (bag && !person && o.box.br().y <= 42) ++bag_alone;
     }
-  }
+  });
   EXPECT_GE(reaching, frames - 1) << "the trousers belong to the moving person";
   EXPECT_GE(bag_alone, frames - 1) << "the still bag is an object of its own, without the trousers";
 }
