@@ -240,11 +240,19 @@ TEST(MserTracker, ABoxCutOffByATablesFarEdgeStandsJustBehindItNotWhereItsBottomR
   EXPECT_GT(pl.x, 6.0);
   EXPECT_LT(pl.x, 6.0 + p.max_footprint);
   EXPECT_GE(pl.height, p.classes.person_min_height);
+  // Where between the edge and that floor they stand the image does not say: the span along
+  // the line of sight, from this place to where the bottom ray meets the floor (plus half a
+  // footprint), is given for a tracker to place a track in by its motion.
+  const Eigen::Vector3d c = cam.pose().position;
+  const MserTracker::Placement at_edge = pl;
+  EXPECT_NEAR(pl.range_min, std::hypot(pl.x - c.x(), pl.y - c.y()), 1e-6);
   // Without the table the same box stands where its bottom ray meets the floor, far beyond.
   auto bare = MserTracker::create(cam);
   ASSERT_TRUE(bare.ok());
   ASSERT_TRUE(bare->place(box, &pl));
   EXPECT_GT(pl.x, 8.0);
+  EXPECT_EQ(pl.range_max, 0.0) << "seen standing: no span";
+  EXPECT_NEAR(at_edge.range_max, std::hypot(pl.x - c.x(), pl.y - c.y()), 0.05) << "the span ends where the floor's place is";
 }
 
 // The image outline of a level rectangle (x0..x1, y0..y1 at height z).

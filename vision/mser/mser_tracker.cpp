@@ -198,6 +198,7 @@ double far_edge(const Surface& s, const Eigen::Vector2d& from, const Eigen::Vect
 }  // namespace
 
 bool MserTracker::place(const cv::Rect& box, Placement* out, double stature) const {
+  out->range_min = out->range_max = 0;
   const auto& k = camera_.intrinsics();
   const Eigen::Vector3d c = camera_.pose().position;
   const double u = box.x + 0.5 * (box.width - 1);
@@ -292,6 +293,14 @@ bool MserTracker::place(const cv::Rect& box, Placement* out, double stature) con
     out->x = at.x();
     out->y = at.y();
     out->width = w_at;
+    if (exit > 1e-6) {
+      // Farther than where the bottom row's ray meets the floor, the feet would show above the
+      // table's edge.
+      const double floor_dist = -c.z() / foot_dir.z() * std::hypot(foot_dir.x(), foot_dir.y());
+      const double near = (at - Eigen::Vector2d(c.x(), c.y())).norm();
+      const double far = floor_dist + 0.5 * std::min(w * floor_dist / dist, p_.max_footprint);
+      if (far > near) out->range_min = near, out->range_max = far;
+    }
     out->height = out->own_height = stature > 0 ? stature : p_.cut_person_height;
     out->support = 0;
     out->surface = -1;
@@ -557,8 +566,27 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     Placement pl;
     if (!place(o.box, &pl)) continue;
     if (o.area < object_px && pl.support <= 0) continue;  // small, and not lying on a surface
-    double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     const int64_t sys_id = o.id + id_offset_;
+    // Behind a table with neither head nor feet in view, the image gives the line of sight and
+    // a span of distances along it: a person track is placed where it is predicted to be (the
+    // last place it was seen at moved on by its velocity then, for at most velocity_window),
+    // brought into that span (someone walking up to the table keeps walking a moment; someone
+    // standing at it stays).
+    if (pl.range_max > pl.range_min) {
+      const auto al0 = alias_.find(sys_id);
+      const auto prior = history_.find(al0 != alias_.end() ? al0->second : sys_id);
+      if (prior != history_.end() && prior->second.cls == TrackClass::kPerson && prior->second.seen.stamp_ns > 0) {
+        const History& ph = prior->second;
+        const double dt = std::min((frame.stamp_ns - ph.seen.stamp_ns) * 1e-9, p_.velocity_window);
+        const Eigen::Vector3d c = camera_.pose().position;
+        const Eigen::Vector2d cam(c.x(), c.y()), along = (Eigen::Vector2d(pl.x, pl.y) - cam).normalized();
+        const double r = std::clamp((Eigen::Vector2d(ph.seen.x + ph.seen_vx * dt, ph.seen.y + ph.seen_vy * dt) - cam).dot(along), pl.range_min, pl.range_max);
+        pl.width *= r / pl.range_min;
+        pl.x = cam.x() + r * along.x();
+        pl.y = cam.y() + r * along.y();
+      }
+    }
+    double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     max_id_ = std::max(max_id_, sys_id);
     // A new object where a bag lies (held, or still seen: the bag's image split in two) is that
     // bag.
@@ -638,10 +666,12 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     // A person's jump no one walks (the box's bottom now another part of the blob: a table's
     // edge, a thing merged in) restarts the velocity rather than reading the jump as motion. (A
     // bag's jump keeps it: its blob merged with someone's, and it is not lying still there.)
+    bool jumped = false;
     if (!hist.trail.empty() && hist.cls != TrackClass::kBag) {
       const Fix& last = hist.trail.back();
       const double dt = (frame.stamp_ns - last.stamp_ns) * 1e-9;
-      if (std::hypot(x - last.x, y - last.y) > p_.max_speed * dt + p_.jump_slack) hist.trail.clear();
+      jumped = std::hypot(x - last.x, y - last.y) > p_.max_speed * dt + p_.jump_slack;
+      if (jumped) hist.trail.clear();
     }
     hist.trail.push_back({frame.stamp_ns, x, y});
     while (hist.trail.size() > 2 && (frame.stamp_ns - hist.trail[1].stamp_ns) * 1e-9 >= p_.velocity_window)
@@ -690,6 +720,8 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       hist.stature = v[v.size() / 2];
     }
+    // (Not a jump no one walks: the box's bottom another part of the blob for a frame.)
+    if (!(pl.range_max > pl.range_min) && !jumped) hist.seen = {frame.stamp_ns, x, y}, hist.seen_vx = hist.vx, hist.seen_vy = hist.vy;
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;

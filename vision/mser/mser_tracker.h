@@ -137,6 +137,10 @@ class MserTracker : public Tracker {
     double support = 0;     // what it stands on: 0 the floor, else a surface's height
     int surface = -1;       // which of MserTrackerParams::surfaces (-1: the floor)
     bool by_head = false;   // placed by its top as a person (feet out of view or behind a table)
+    // Behind a table with the head out of view as well: the distance from the camera along the
+    // line of sight (horizontal, m) is only known to lie in [range_min, range_max] (the table's
+    // far edge, where the bottom row's ray meets the floor); x, y are at range_min. Else both 0.
+    double range_min = 0, range_max = 0;
   };
   // `stature` (m, when known): a person placed by the head is this tall, else cut_person_height.
   bool place(const cv::Rect& box, Placement* out, double stature = -1) const;
@@ -173,6 +177,8 @@ class MserTracker : public Tracker {
     double cut_votes = 0;  // boxes cut off by the image's top, taller than a bag (decaying as votes)
     Picture picture;  // a still bag: how it looked when last seen on its own, no hand on it
     double stature = -1;  // a person's height, measured while the feet and head were in view (-1: not yet)
+    Fix seen;             // the last place not inside a span only (Placement::range_min), and
+    double seen_vx = 0, seen_vy = 0;  // the velocity then
     std::deque<double> statures;  // its last measurements
   };
   bool place_by_head(const cv::Rect& box, Placement* out, double stature = -1) const;
