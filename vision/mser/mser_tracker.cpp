@@ -720,8 +720,12 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       hist.stature = v[v.size() / 2];
     }
-    // (Not a jump no one walks: the box's bottom another part of the blob for a frame.)
-    if (!(pl.range_max > pl.range_min) && !jumped) hist.seen = {frame.stamp_ns, x, y}, hist.seen_vx = hist.vx, hist.seen_vy = hist.vy;
+    // (Not a jump no one walks from there: the box's bottom another part of the blob for a
+    // frame or a few.)
+    const bool reachable = hist.seen.stamp_ns == 0 || std::hypot(x - hist.seen.x, y - hist.seen.y) <=
+                                                          p_.max_speed * (frame.stamp_ns - hist.seen.stamp_ns) * 1e-9 + p_.jump_slack;
+    if (!(pl.range_max > pl.range_min) && !jumped && reachable)
+      hist.seen = {frame.stamp_ns, x, y}, hist.seen_vx = hist.vx, hist.seen_vy = hist.vy;
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;
