@@ -744,15 +744,15 @@ void MserSystem::update_objects() {
           for (int x = still_box.x; x < still_box.x + still_box.width; ++x)
             if (c[x] == i && f[x] && still[l[x]] && !(spill_.data && spill_.at<uint8_t>(y, x))) c[x] = part;
         }
-        if (spill_px > 0) {
+        if (spill_still) {  // (else they kept the moving part's label)
           for (int y = spill_box.y; y < spill_box.br().y; ++y) {
             int32_t* c = cc.ptr<int32_t>(y);
             const uint8_t* sp = spill_.ptr<uint8_t>(y);
             for (int x = spill_box.x; x < spill_box.br().x; ++x)
-              if (c[x] == i && sp[x]) c[x] = spill_still ? part : i;
+              if (c[x] == i && sp[x]) c[x] = part;
           }
-          (spill_still ? still_box : moving_box) |= spill_box;
         }
+        if (spill_px > 0) (spill_still ? still_box : moving_box) |= spill_box;
         for (const auto& [b, label] : {std::pair{moving_box, i}, std::pair{still_box, part}}) add_box(label, b, label == part, -1);
         continue;
       }

@@ -666,13 +666,12 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     // A person's jump no one walks (the box's bottom now another part of the blob: a table's
     // edge, a thing merged in) restarts the velocity rather than reading the jump as motion. (A
     // bag's jump keeps it: its blob merged with someone's, and it is not lying still there.)
-    bool jumped = false;
-    if (!hist.trail.empty() && hist.cls != TrackClass::kBag) {
-      const Fix& last = hist.trail.back();
-      const double dt = (frame.stamp_ns - last.stamp_ns) * 1e-9;
-      jumped = std::hypot(x - last.x, y - last.y) > p_.max_speed * dt + p_.jump_slack;
-      if (jumped) hist.trail.clear();
-    }
+    // Whether (x, y) is a walk from a fix (at most max_speed, plus jump_slack).
+    auto walkable_from = [&](const Fix& f) {
+      return std::hypot(x - f.x, y - f.y) <= p_.max_speed * (frame.stamp_ns - f.stamp_ns) * 1e-9 + p_.jump_slack;
+    };
+    const bool jumped = !hist.trail.empty() && hist.cls != TrackClass::kBag && !walkable_from(hist.trail.back());
+    if (jumped) hist.trail.clear();
     hist.trail.push_back({frame.stamp_ns, x, y});
     while (hist.trail.size() > 2 && (frame.stamp_ns - hist.trail[1].stamp_ns) * 1e-9 >= p_.velocity_window)
       hist.trail.pop_front();
@@ -722,9 +721,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     }
     // (Not a jump no one walks from there: the box's bottom another part of the blob for a
     // frame or a few.)
-    const bool reachable = hist.seen.stamp_ns == 0 || std::hypot(x - hist.seen.x, y - hist.seen.y) <=
-                                                          p_.max_speed * (frame.stamp_ns - hist.seen.stamp_ns) * 1e-9 + p_.jump_slack;
-    if (!(pl.range_max > pl.range_min) && !jumped && reachable)
+    if (!(pl.range_max > pl.range_min) && !jumped && (hist.seen.stamp_ns == 0 || walkable_from(hist.seen)))
       hist.seen = {frame.stamp_ns, x, y}, hist.seen_vx = hist.vx, hist.seen_vy = hist.vy;
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
