@@ -218,7 +218,7 @@ void add_bench_mser_command(CLI::App* bench) {
         // this ratio share the machine's load of the moment (a shared machine's speed drifts by
         // 10 to 50 % over a run).
         vision::mser::MserSystem system;
-        std::vector<double> t_sys, t_col_sys;
+        std::vector<double> t_sys, t_core, t_col_sys;
         double st_seg = 0, st_track = 0, st_bg = 0, st_obj = 0;
         std::string why;
         for (int i = 0, n = static_cast<int>(sized.size()); static_cast<int>(t_sys.size()) < 40 && n > 1; ++i) {
@@ -228,12 +228,14 @@ void add_bench_mser_command(CLI::App* bench) {
           if (system.learning()) continue;
           t_sys.push_back(ms_since(t0));
           const auto& st = system.stage_times();
+          t_core.push_back(st.segmentation + st.tracking);
           st_seg += st.segmentation, st_track += st.tracking, st_bg += st.background, st_obj += st.objects;
           t0 = Clock::now();
           colour->detectRegions(sized[j], regions, boxes);
           t_col_sys.push_back(ms_since(t0));
         }
         const double msys = t_sys.empty() ? 0.0 : median(t_sys);
+        const double mcore = t_core.empty() ? 0.0 : median(t_core);
         const double mcs = t_col_sys.empty() ? 0.0 : median(t_col_sys);
         const double mf = median(t_ff), ms = median(t_still);
         const double mo = median(t_ours), mc = median(t_col), mg = median(t_grey);
@@ -248,9 +250,14 @@ void add_bench_mser_command(CLI::App* bench) {
                     "", "", mf, 100 * seeded * k / px, ms, 100 * seeded_still * k / px, mo > 0 ? ms / mo : 0.0);
         std::printf("%-28s %9s     its phases (mean ms): texture %.2f, lines %.2f, seeds %.2f, MSER tree %.2f, expansion %.2f\n",
                     "", "", ff_tex * k, ff_lines * k, ff_seeds * k, ff_tree * k, ff_exp * k);
-        std::printf("%-28s %9s   whole system (segmentation with feed-forward, 4 tracking phases, background, objects): "
-                    "%.2f ms, %.1f fps; colour MSER on the same frames, same loop: %.2f ms; %.2fx faster\n",
-                    "", "", msys, msys > 0 ? 1e3 / msys : 0.0, mcs, msys > 0 ? mcs / msys : 0.0);
+        // Issue 12's whole system is the segmentation (lines, tree, expansion, feed-forward) and
+        // the four tracking phases; the pipeline adds the background model and the objects.
+        std::printf("%-28s %9s   whole system (lines, tree, expansion, feed-forward, 4 tracking phases): %.2f ms, %.1f "
+                    "fps; colour MSER on the same frames, same loop: %.2f ms; %.2fx faster\n",
+                    "", "", mcore, mcore > 0 ? 1e3 / mcore : 0.0, mcs, mcore > 0 ? mcs / mcore : 0.0);
+        std::printf("%-28s %9s   with the background model and objects (the whole pipeline): %.2f ms, %.1f fps; %.2fx "
+                    "faster\n",
+                    "", "", msys, msys > 0 ? 1e3 / msys : 0.0, msys > 0 ? mcs / msys : 0.0);
         const double ks = t_sys.empty() ? 0.0 : 1.0 / static_cast<double>(t_sys.size());
         std::printf("%-28s %9s     stages (mean ms): segmentation %.2f, tracking %.2f, background %.2f, objects %.2f\n", "",
                     "", st_seg * ks, st_track * ks, st_bg * ks, st_obj * ks);
@@ -270,9 +277,11 @@ void add_bench_mser_command(CLI::App* bench) {
                            {"feed_forward_seeded_share", seeded * k / px},
                            {"still_feed_forward_median_ms", ms},
                            {"still_seeded_share", seeded_still * k / px},
-                           {"system_median_ms", msys},
-                           {"system_colour_mser_median_ms", mcs},
-                           {"system_speedup_over_colour", msys > 0 ? mcs / msys : 0.0}});
+                           {"system_median_ms", mcore},
+                           {"system_speedup_over_colour", mcore > 0 ? mcs / mcore : 0.0},
+                           {"pipeline_median_ms", msys},
+                           {"pipeline_speedup_over_colour", msys > 0 ? mcs / msys : 0.0},
+                           {"system_colour_mser_median_ms", mcs}});
       }
     }
     // Segmentation quality on the rendered frames (640x480) against the renderer's labels (each
@@ -319,8 +328,8 @@ void add_bench_mser_command(CLI::App* bench) {
       }
     }
     cv::setNumThreads(threads);
-    std::printf("targets (issue 12): >= 3x faster than colour cv::MSER at both sizes; >= 60 fps at 320x240 for the whole "
-                "system\n");
+    std::printf("targets (issue 12): the whole system (lines, tree, expansion, feed-forward, four-phase tracking) >= 3x "
+                "faster than colour cv::MSER at both sizes and >= 60 fps at 320x240\n");
     if (!o->json.empty()) {
       std::ofstream f(o->json);
       nlohmann::ordered_json all = {{"speed", results}, {"quality", quality}};

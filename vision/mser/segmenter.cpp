@@ -67,13 +67,10 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
   const uint8_t* old = prev_frame_.ptr<uint8_t>(0);
   const int32_t* lab = prev_labels_.ptr<int32_t>(0);
   const size_t regions = static_cast<size_t>(prev_regions_);
-  // Per last-frame region: its size, its unchanged pixels, their gradient sum, its colour sum.
-  struct Acc {
-    int32_t size = 0, unchanged = 0;
-    int64_t grad = 0;
-    int64_t colour[3] = {0, 0, 0};
-  };
-  std::vector<Acc> acc(regions);
+  // Per last-frame region: its unchanged pixels and their gradient sum, counted here; its size
+  // and colour sum are the last segmentation's (sums_, kept from its expansion).
+  acc_.assign(regions, SeedAcc{});
+  std::vector<SeedAcc>& acc = acc_;
   same_.resize(n);
   grad_.resize(n);
   unchanged_bytes_.resize(3 * n);
@@ -92,27 +89,21 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
       grad[i] = std::max<uint16_t>(th < 256 ? th : 0, tt < 256 ? tt : 0);
     }
   }
-  // Runs of one label along a row are summed first (most pixels lie inside large regions).
+  // Runs of one label along a row are summed first (most pixels lie inside large regions); the
+  // runs are kept for the seed test below.
+  runs_.clear();
   for (size_t i = 0; i < n;) {
     const int32_t r = lab[i];
-    int32_t size = 0, unchanged = 0;
-    int64_t grad = 0, c0 = 0, c1 = 0, c2 = 0;
-    const size_t row_end = (i / w + 1) * static_cast<size_t>(w);
+    int32_t unchanged = 0;
+    int64_t grad = 0;
+    const size_t start = i, row_end = (i / w + 1) * static_cast<size_t>(w);
     for (; i < row_end && lab[i] == r; ++i) {
-      ++size;
       unchanged += same_[i];
       grad += grad_[i];
-      c0 += old[3 * i];
-      c1 += old[3 * i + 1];
-      c2 += old[3 * i + 2];
     }
-    Acc& a = acc[r];
-    a.size += size;
-    a.unchanged += unchanged;
-    a.grad += grad;
-    a.colour[0] += c0;
-    a.colour[1] += c1;
-    a.colour[2] += c2;
+    acc[r].unchanged += unchanged;
+    acc[r].grad += grad;
+    runs_.push_back({static_cast<int32_t>(start), static_cast<int32_t>(i)});
   }
   // Per region: its mean colour, and the gradient a seed must stay under: its mean gradient
   // (grad < sum / size is grad < ceil(sum / size) for whole numbers) or `low_gradient`,
@@ -123,25 +114,32 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
   };
   std::vector<Gate> gate(regions);
   for (size_t r = 0; r < regions; ++r) {
-    const Acc& a = acc[r];
-    if (a.size == 0 || 2 * a.unchanged <= a.size) continue;
-    gate[r].below = std::max<int32_t>(static_cast<int32_t>((a.grad + a.size - 1) / a.size), p_.low_gradient);
-    for (int k = 0; k < 3; ++k) gate[r].colour[k] = static_cast<float>(static_cast<double>(a.colour[k]) / a.size);
+    const SeedAcc& a = acc[r];
+    const int64_t size = sums_[r].n;
+    if (size == 0 || 2 * a.unchanged <= size) continue;
+    gate[r].below = std::max<int32_t>(static_cast<int32_t>((a.grad + size - 1) / size), p_.low_gradient);
+    for (int k = 0; k < 3; ++k) gate[r].colour[k] = static_cast<float>(static_cast<double>(sums_[r].c[k]) / size);
   }
   const float colour2 = static_cast<float>(p_.seed_colour * p_.seed_colour);
-  // Every pixel tested without branches: unchanged, not on a line, gradient low, colour close.
+  // Every pixel tested, run by run (one region's gate for the run): unchanged, not on a line,
+  // gradient low, colour close; a run of a region that changed seeds nothing.
   const uint8_t* __restrict same = same_.data();
   const uint8_t* __restrict blocked = blocked_.data();
   const uint16_t* __restrict grad = grad_.data();
   int32_t* __restrict seed = seed_of_.data();
   int seeded = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const int32_t r = lab[i];
-    const Gate& g = gate[r];
-    const float d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
-    const bool ok = same[i] & (blocked[i] ^ 1) & (grad[i] < g.below) & (d0 * d0 + d1 * d1 + d2 * d2 <= colour2);
-    seed[i] = ok ? r : -1;
-    seeded += ok;
+  for (const auto& [a, b] : runs_) {
+    const int32_t r = lab[a];
+    const Gate g = gate[r];
+    if (g.below == 0) continue;  // seed_of_ is -1 already
+    int run_seeded = 0;
+    for (int32_t i = a; i < b; ++i) {
+      const float d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
+      const int ok = same[i] & (blocked[i] ^ 1) & (grad[i] < g.below) & (d0 * d0 + d1 * d1 + d2 * d2 <= colour2);
+      seed[i] = (r + 1) * ok - 1;  // r, or -1 (no branch)
+      run_seeded += ok;
+    }
+    seeded += run_seeded;
   }
   seeded_ = seeded;  // seed_groups_ is counted where the groups are formed (build_tree)
 }

@@ -146,6 +146,12 @@ class MserSegmenter {
   std::vector<int32_t> seed_of_;
   std::vector<uint8_t> same_, unchanged_bytes_;
   std::vector<uint16_t> grad_;
+  struct SeedAcc {
+    int32_t unchanged = 0;
+    int64_t grad = 0;
+  };
+  std::vector<SeedAcc> acc_;
+  std::vector<std::pair<int32_t, int32_t>> runs_;  // make_seeds: runs of one last-frame label
   int seeded_ = 0, seed_groups_ = 0;
   void make_seeds(const cv::Mat& bgr);
 };

@@ -127,7 +127,8 @@ void order_texture_elements(TextureElements* t, const uint8_t* skip, const int32
   const uint16_t* __restrict value = t->value.data();
   // Four partial counts, so runs of equal keys do not wait on one counter.
   std::array<std::array<uint32_t, 257>, 4> part{};
-  for (size_t c = 0; c < n; ++c) {
+  // One pixel's two keys (the branches: image borders only).
+  auto keys_of = [&](size_t c) {
     uint16_t kh = value[2 * c], kv = value[2 * c + 1];
     if (skip && skip[c]) kh = kv = 256;
     if (group) {
@@ -139,8 +140,28 @@ void order_texture_elements(TextureElements* t, const uint8_t* skip, const int32
     }
     key[2 * c] = kh;
     key[2 * c + 1] = kv;
-    ++part[(c & 1) * 2][kh];
-    ++part[(c & 1) * 2 + 1][kv];
+  };
+  const size_t inner_begin = static_cast<size_t>(w), inner_end = n > static_cast<size_t>(w) ? n - w : 0;
+  for (size_t c = 0; c < std::min(inner_begin, n); ++c) keys_of(c);
+  if (group && inner_end > inner_begin) {
+    // Rows with a row above and below: every neighbour exists, so the tests need no branches.
+    for (size_t c = inner_begin; c < inner_end; ++c) {
+      const int32_t g = group[c];
+      const bool seeded = g >= 0;
+      const uint16_t off = static_cast<uint16_t>(skip ? skip[c] != 0 : 0);
+      const bool in_h = off | (seeded & (group[c - 1] == g) & (group[c + 1] == g));
+      const bool in_v = off | (seeded & (group[c - w] == g) & (group[c + w] == g));
+      const uint16_t kh = value[2 * c], kv = value[2 * c + 1];
+      key[2 * c] = in_h ? uint16_t{256} : kh;
+      key[2 * c + 1] = in_v ? uint16_t{256} : kv;
+    }
+  } else {
+    for (size_t c = inner_begin; c < inner_end; ++c) keys_of(c);
+  }
+  for (size_t c = std::max(inner_begin, inner_end); c < n; ++c) keys_of(c);
+  for (size_t c = 0; c < n; ++c) {
+    ++part[(c & 1) * 2][key[2 * c]];
+    ++part[(c & 1) * 2 + 1][key[2 * c + 1]];
   }
   // Counting sort of the elements left in (key <= 255), stable: by element within a value.
   t->level_start.assign(257, 0);
