@@ -217,6 +217,11 @@ void detect_lines(const cv::Mat& bgr, const LineParams& p, Lines* out) {
   std::vector<cv::Point> chain;
   std::vector<int> keep;
   std::vector<std::pair<int, int>> stack;
+  // Chains of fewer than `min_pixels` pixels (their first pixel): only their edge components can
+  // be smaller than that; a longer chain's component is at least as long.
+  const size_t min_pixels = static_cast<size_t>(std::max(1.0, std::ceil(p.min_length)));
+  std::vector<int32_t>& short_chains = out->short_chains;
+  short_chains.clear();
   auto trace = [&](int i) {
     idx.clear();
     idx.push_back(i);
@@ -245,6 +250,8 @@ void detect_lines(const cv::Mat& bgr, const LineParams& p, Lines* out) {
         }
       }
     }
+    // (Counted without the end's neighbour: on a closed loop that is the chain's own start.)
+    if (len < min_pixels) short_chains.push_back(idx[0]);
     if (idx.size() < 2) return;
     chain.resize(idx.size());
     for (size_t k = 0; k < idx.size(); ++k) chain[k] = point(idx[k]);
@@ -271,27 +278,40 @@ void detect_lines(const cv::Mat& bgr, const LineParams& p, Lines* out) {
   // pixels, the chains' pixels, not only the segments fitted to them (a doubled edge, or a spur
   // at a junction shorter than a segment, would otherwise leave a gap growth leaks through).
   // Smaller components (specks of texture) do not block.
+  // Only the components a short chain lies in are searched, each until it is known to reach
+  // `min_pixels` (then its pixels seen are marked 4, and a later search that meets them stops
+  // there) or is found whole and smaller (its pixels marked 3: not a barrier). Every other edge
+  // pixel blocks.
   std::vector<int> comp;
-  const size_t min_pixels = static_cast<size_t>(std::max(1.0, std::ceil(p.min_length)));
-  uint8_t* mask = out->mask.ptr<uint8_t>(0);
-  for (const int32_t i0 : edge_px) {
-    if (e[i0] != 1) continue;
+  for (const int32_t i0 : short_chains) {
+    if (e[i0] != 1) continue;  // searched from another short chain already
     comp.clear();
     comp.push_back(i0);
     e[i0] = 2;
-    for (size_t k = 0; k < comp.size(); ++k)
+    bool large = false;
+    for (size_t k = 0; k < comp.size() && !large; ++k)
       for (int d = 0; d < 8; ++d) {
-        const int q = comp[k] + off[d];
-        if (e[q] == 1) {
-          e[q] = 2;
-          comp.push_back(q);
+        const uint8_t v = e[comp[k] + off[d]];
+        if (v == 4) {
+          large = true;
+          break;
+        }
+        if (v == 1) {
+          e[comp[k] + off[d]] = 2;
+          comp.push_back(comp[k] + off[d]);
+          if (comp.size() >= min_pixels) {
+            large = true;
+            break;
+          }
         }
       }
-    if (comp.size() < min_pixels) continue;
-    for (int q : comp) {
-      const cv::Point pt = point(q);
-      mask[static_cast<size_t>(pt.y) * w + pt.x] = 255;
-    }
+    for (int q : comp) e[q] = large ? 4 : 3;
+  }
+  uint8_t* mask = out->mask.ptr<uint8_t>(0);
+  for (const int32_t q : edge_px) {
+    if (e[q] == 3) continue;
+    const cv::Point pt = point(q);
+    mask[static_cast<size_t>(pt.y) * w + pt.x] = 255;
   }
 }
 

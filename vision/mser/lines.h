@@ -32,7 +32,7 @@ struct Lines {
   // Work buffers, kept between calls (a run of frames allocates once).
   std::vector<int16_t> work16;
   std::vector<uint8_t> edge_map;
-  std::vector<int32_t> stack, edge_pixels;
+  std::vector<int32_t> stack, edge_pixels, short_chains;
   cv::Mat grey, padded;
 };
 
