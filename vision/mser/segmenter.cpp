@@ -60,6 +60,29 @@ void MserSegmenter::reset() {
   prev_labels_.release();
 }
 
+// One run of a last-frame region through the seed test (make_seeds): unchanged, not on a line,
+// gradient below the region's gate, colour within the limit of its mean; writes the region or
+// -1 per pixel and returns how many seeded. An AVX2 clone where the processor has it (as
+// compute_texture_values; not under ThreadSanitizer).
+#if defined(__SANITIZE_THREAD__)
+#define VIGIL_SEED_CLONES
+#else
+#define VIGIL_SEED_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+VIGIL_SEED_CLONES int seed_run(const uint8_t* __restrict px, const uint8_t* __restrict same, const uint8_t* __restrict blocked,
+                               const uint16_t* __restrict grad, int len, const float* mean, int below, float colour2,
+                               int32_t region, int32_t* __restrict out) {
+  const float m0 = mean[0], m1 = mean[1], m2 = mean[2];
+  int seeded = 0;
+  for (int k = 0; k < len; ++k) {
+    const float d0 = px[3 * k] - m0, d1 = px[3 * k + 1] - m1, d2 = px[3 * k + 2] - m2;
+    const int ok = same[k] & (blocked[k] ^ 1) & (grad[k] < below) & (d0 * d0 + d1 * d1 + d2 * d2 <= colour2);
+    out[k] = (region + 1) * ok - 1;  // the region, or -1 (no branch)
+    seeded += ok;
+  }
+  return seeded;
+}
+
 void MserSegmenter::make_seeds(const cv::Mat& bgr) {
   const int w = bgr.cols, h = bgr.rows;
   const size_t n = static_cast<size_t>(w) * h;
@@ -132,13 +155,8 @@ void MserSegmenter::make_seeds(const cv::Mat& bgr) {
     const int32_t r = lab[a];
     const Gate g = gate[r];
     if (g.below == 0) continue;  // seed_of_ is -1 already
-    int run_seeded = 0;
-    for (int32_t i = a; i < b; ++i) {
-      const float d0 = cur[3 * i] - g.colour[0], d1 = cur[3 * i + 1] - g.colour[1], d2 = cur[3 * i + 2] - g.colour[2];
-      const int ok = same[i] & (blocked[i] ^ 1) & (grad[i] < g.below) & (d0 * d0 + d1 * d1 + d2 * d2 <= colour2);
-      seed[i] = (r + 1) * ok - 1;  // r, or -1 (no branch)
-      run_seeded += ok;
-    }
+    const int run_seeded = seed_run(cur + 3 * static_cast<size_t>(a), same + a, blocked + a, grad + a, b - a, g.colour,
+                                    g.below, colour2, r, seed + a);
     seeded += run_seeded;
   }
   seeded_ = seeded;  // seed_groups_ is counted where the groups are formed (build_tree)
