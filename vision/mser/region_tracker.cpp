@@ -75,9 +75,13 @@ std::vector<std::vector<LineCorner>> line_corners(const Segmentation& s, const L
         if (!near_region(pos, r)) continue;
         // The same corner twice (an edge traced on both its sides): keep the first.
         bool dup = false;
-        for (const LineCorner& c : out[r])
-          dup = dup || (c.left == left && cv::norm(c.pos - pos) < 1.5 &&
-                        angle_difference(c.angle, angle) <= p.corner_angle * kPi / 180);
+        for (const LineCorner& c : out[r]) {
+          if (c.left != left || std::abs(c.pos.x - pos.x) >= 1.5f || std::abs(c.pos.y - pos.y) >= 1.5f) continue;
+          if (cv::norm(c.pos - pos) < 1.5 && angle_difference(c.angle, angle) <= p.corner_angle * kPi / 180) {
+            dup = true;
+            break;
+          }
+        }
         if (!dup) out[r].push_back({pos, angle, s.regions[r].mean, left, r});
       }
     }
