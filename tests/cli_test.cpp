@@ -290,6 +290,27 @@ TEST(Cli, TrackRunsThePlanViewPipelineOnARenderedSource) {
   EXPECT_NE(missing.out.find("/no/such.avi"), std::string::npos) << missing.out;
 }
 
+TEST(Cli, BenchMserTimesTheWholeSystemBesideColourMserOnTheSameFrames) {
+  const fs::path out = temp_dir("bench_mser") / "mser.json";
+  const Output o = vigil_cmd("bench mser --frames 12 --sizes 160x120 --video /no/such.avi --json " + out.string());
+  ASSERT_EQ(o.code, 0) << o.out;
+  EXPECT_NE(o.out.find("real-video rows are skipped"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("whole system (lines, tree, expansion, feed-forward, 4 tracking phases)"), std::string::npos) << o.out;
+  const auto j = nlohmann::json::parse(slurp(out));
+  ASSERT_EQ(j["speed"].size(), 1u);  // the rendered lab at one size
+  const auto& row = j["speed"][0];
+  EXPECT_EQ(row["width"], 160);
+  EXPECT_GT(row["system_median_ms"].get<double>(), 0.0);
+  EXPECT_GT(row["system_colour_mser_median_ms"].get<double>(), 0.0);
+  // The pipeline is the system and more.
+  EXPECT_GE(row["pipeline_median_ms"].get<double>(), row["system_median_ms"].get<double>());
+  ASSERT_EQ(j["quality"].size(), 3u);
+  for (const auto& q : j["quality"]) EXPECT_GT(q["boundary_recall"].get<double>(), 0.0) << q.dump();
+  const Output bad = vigil_cmd("bench mser --sizes 320by240 --video /no/such.avi");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--sizes"), std::string::npos) << bad.out;
+}
+
 TEST(Cli, BenchRenderReportsPairsPerSecondBesideThePlainScene) {
   const fs::path out = temp_dir("bench_render") / "render.json";
   const Output o = vigil_cmd("bench render --pairs 3 --sizes 160x120,80x60 --at 5 --json " + out.string());

@@ -143,7 +143,8 @@ void add_bench_mser_command(CLI::App* bench) {
     const int threads = cv::getNumThreads();
     cv::setNumThreads(1);
     std::printf("vigil bench mser: %d frames per source, one thread; ours = lines + MSER tree + region expansion "
-                "(the whole system adds feed-forward, the four tracking phases, the background model and objects)\n",
+                "(the whole system adds feed-forward and the four tracking phases; the pipeline adds the background model and "
+                "objects)\n",
                 o->frames);
     std::printf("%-28s %9s %10s %8s %12s %8s %11s %8s %9s %9s\n", "source", "size", "ours ms", "fps", "colour MSER",
                 "regions", "grey MSER", "regions", "vs colour", "regions");
