@@ -296,6 +296,62 @@ struct Feeder {
   }
 };
 
+// Someone walks up behind the table and stands there, her head above the image and her legs
+// hidden by the table: placed in the span along her line of sight by where she was last seen
+// whole. Two frames in which her lower body is lost (trousers merged with what is behind) put
+// her bottom above the table's edge, on the floor far beyond; they must not become where she
+// was last seen, or every later span placement follows them there.
+TEST(MserTracker, TwoWrongFramesBehindATableDoNotMoveWhereSheStands) {
+  const StereoCameraModel cam = corridor_camera();
+  MserTrackerParams p;
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // x 5.1 to 6.0
+  auto t = MserTracker::create(cam, p);
+  ASSERT_TRUE(t.ok());
+  Eigen::Vector2d edge;
+  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(6.0, 0.0, 0.75), &edge));
+  // A figure from the image's top down to its feet at (x, y) (or to `cut_above` rows above the
+  // table's far edge), the table drawn over it.
+  auto frame = [&](double x, double y, int cut_above) {
+    cv::Mat img(240, 320, CV_8UC3);
+    cv::RNG rng(5);
+    rng.fill(img, cv::RNG::UNIFORM, 150, 158);
+    const cv::Rect feet = cylinder_box(cam, x, y, 0.25, 0.3);
+    const int bottom = cut_above > 0 ? static_cast<int>(edge.y()) - cut_above : feet.br().y;
+    cv::rectangle(img, cv::Rect(feet.x, 0, feet.width, bottom), cv::Scalar(60, 160, 50), cv::FILLED);
+    cv::fillConvexPoly(img, projected_quad(cam, 5.1, -0.9, 6.0, 0.9, 0.75), cv::Scalar(60, 110, 170));
+    return img;
+  };
+  const cv::Mat empty = table_scene(cam);
+  Feeder step{&*t};
+  for (int i = 0; i < 25; ++i) step(empty);
+  // Walking up from 9 m at 1 m/s, feet in view until the table hides them; then standing.
+  const double stand = 6.3;
+  auto person_x = [&](const std::vector<Track>& tracks) {
+    double best = -1;
+    for (const Track& tr : tracks)
+      if (tr.id < MserTracker::kStartIds && tr.cls == TrackClass::kPerson) best = tr.x;
+    return best;
+  };
+  for (double x = 9.0; x > stand; x -= 1.0 / 15) step(frame(x, 0.0, 0));
+  int placed = 0;
+  for (int i = 0; i < 45; ++i) {
+    const double x = person_x(step(frame(stand, 0.0, 0)));
+    if (x < 0) continue;
+    ++placed;
+    EXPECT_NEAR(x, stand, 0.5) << "standing, frame " << i;
+  }
+  ASSERT_GE(placed, 30) << "she is tracked standing behind the table";
+  for (int i = 0; i < 2; ++i) step(frame(stand, 0.0, 20));  // her lower body lost
+  placed = 0;
+  for (int i = 0; i < 20; ++i) {
+    const double x = person_x(step(frame(stand, 0.0, 0)));
+    if (x < 0) continue;
+    ++placed;
+    EXPECT_NEAR(x, stand, 0.5) << "standing again, frame " << i;
+  }
+  EXPECT_GE(placed, 15);
+}
+
 // Hands (Track::hand_on). After the laptop on the table has been learned as present at the
 // start, a figure standing behind it (the laptop drawn over the figure: its pixels unchanged)
 // has no hand on it; the same figure with an arm over the laptop has.

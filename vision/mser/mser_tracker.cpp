@@ -581,7 +581,7 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
         const Eigen::Vector3d c = camera_.pose().position;
         const Eigen::Vector2d cam(c.x(), c.y()), along = (Eigen::Vector2d(pl.x, pl.y) - cam).normalized();
         const double r = std::clamp((Eigen::Vector2d(ph.seen.x + ph.seen_vx * dt, ph.seen.y + ph.seen_vy * dt) - cam).dot(along), pl.range_min, pl.range_max);
-        pl.width *= r / pl.range_min;
+            pl.width *= r / pl.range_min;
         pl.x = cam.x() + r * along.x();
         pl.y = cam.y() + r * along.y();
       }
@@ -721,8 +721,14 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     }
     // (Not a jump no one walks from there: the box's bottom another part of the blob for a
     // frame or a few.)
-    if (!(pl.range_max > pl.range_min) && !jumped && (hist.seen.stamp_ns == 0 || walkable_from(hist.seen)))
+    // Nor one no one walks from the place predicted in a span since (someone standing behind the
+    // table for seconds: a wrong fix two frames running is walkable from where she was last seen
+    // whole, long ago, but not from where she stands).
+    const bool spanned = pl.range_max > pl.range_min;
+    if (!spanned && !jumped && (hist.seen.stamp_ns == 0 || walkable_from(hist.seen)) &&
+        (hist.spanned.stamp_ns <= hist.seen.stamp_ns || walkable_from(hist.spanned)))
       hist.seen = {frame.stamp_ns, x, y}, hist.seen_vx = hist.vx, hist.seen_vy = hist.vy;
+    if (spanned) hist.spanned = {frame.stamp_ns, x, y};
     hist.stamp_ns = frame.stamp_ns;
     hist.x = x;
     hist.y = y;

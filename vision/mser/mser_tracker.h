@@ -179,6 +179,7 @@ class MserTracker : public Tracker {
     double stature = -1;  // a person's height, measured while the feet and head were in view (-1: not yet)
     Fix seen;             // the last place not inside a span only (Placement::range_min), and
     double seen_vx = 0, seen_vy = 0;  // the velocity then
+    Fix spanned;          // the last place predicted inside a span
     std::deque<double> statures;  // its last measurements
   };
   bool place_by_head(const cv::Rect& box, Placement* out, double stature = -1) const;
