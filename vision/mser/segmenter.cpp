@@ -287,11 +287,17 @@ void MserSegmenter::build_tree(Segmentation* out) {
       A.tail = b;
     }
     for (int32_t a : first) seed_groups_ += a >= 0;
-    for (int32_t a : first)
-      if (a >= 0 && parent[a] != -1) {
+    group_first_.assign(first.begin(), first.end());
+    group_size_.assign(first.size(), 0);
+    for (size_t g = 0; g < first.size(); ++g) {
+      const int32_t a = first[g];
+      if (a < 0) continue;
+      group_size_[g] = size_of(a);
+      if (parent[a] != -1) {
         Rec& A = record_of(a);
         A.prev_size = A.size;
       }
+    }
   }
   const uint32_t* order = tex_.order.data();
   for (int v = 0; v < 256; ++v) {
@@ -473,6 +479,13 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
   std::vector<int32_t> pending;
   for (size_t i = 0; i < n; ++i)
     if (lab[i] < 0) pending.push_back(static_cast<int32_t>(i));
+  // A feed-forward group is one region from the start, so all its pixels lie in one component:
+  // its region, or (a speck) pixels assigned one by one below. Which, before they are.
+  if (seeded_ > 0) {
+    group_label_.resize(group_first_.size());
+    for (size_t g = 0; g < group_first_.size(); ++g) group_label_[g] = group_first_[g] >= 0 ? lab[group_first_[g]] : -1;
+    unassigned_ = pending;
+  }
   std::vector<int32_t> still;
   std::vector<std::pair<int32_t, int32_t>> assign;
   while (!pending.empty()) {
@@ -524,8 +537,7 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     pending.swap(still);
   }
   // Feed-forward links: the last frame's region most of a region's seeds came from (on a tie,
-  // the lowest). Counted over runs of one (region, donor) pair along the image; a region has
-  // few donors, kept in a short list, more in a map.
+  // the lowest). A region has few donors, kept in a short list, more in a map.
   if (seeded_ > 0) {
     struct Donors {
       int32_t donor[4], count[4];
@@ -547,19 +559,11 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
         x.more[d] += c;
       }
     };
-    const int32_t* seed = seed_of_.data();
-    for (size_t i = 0; i < n;) {
-      const int32_t d = seed[i];
-      if (d < 0) {
-        ++i;
-        continue;
-      }
-      const int32_t r = lab[i];
-      size_t j = i + 1;
-      while (j < n && seed[j] == d && lab[j] == r) ++j;
-      add(r, d, static_cast<int32_t>(j - i));
-      i = j;
-    }
+    // Each group whole where its component is a region; pixel by pixel where it was a speck.
+    for (size_t g = 0; g < group_first_.size(); ++g)
+      if (group_label_[g] >= 0) add(group_label_[g], static_cast<int32_t>(g), group_size_[g]);
+    for (const int32_t i : unassigned_)
+      if (seed_of_[i] >= 0) add(lab[i], seed_of_[i], 1);
     for (size_t r = 0; r < out->regions.size(); ++r) {
       const Donors& x = by[r];
       int best = -1, most = 0, total = 0;

@@ -152,6 +152,9 @@ class MserSegmenter {
   };
   std::vector<SeedAcc> acc_;
   std::vector<std::pair<int32_t, int32_t>> runs_;  // make_seeds: runs of one last-frame label
+  // Feed-forward groups (one per last-frame region with seeds): first pixel, size, and the
+  // region their component became (-1: a speck, its pixels assigned one by one); those pixels.
+  std::vector<int32_t> group_first_, group_size_, group_label_, unassigned_;
   int seeded_ = 0, seed_groups_ = 0;
   void make_seeds(const cv::Mat& bgr);
 };
