@@ -413,9 +413,13 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     reg.node = out->leaves[li];
     out->regions.push_back(reg);
   }
+  // Pixels left unassigned (line pixels, specks) are listed for the sweeps below.
+  std::vector<int32_t>& pending = pending_;
+  pending.clear();
   for (size_t i = 0; i < n; ++i) {
     if (blocked_[i]) {
       lab[i] = -1;
+      pending.push_back(static_cast<int32_t>(i));
       continue;
     }
     const int32_t r = root_[i];
@@ -424,11 +428,13 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
       out->regions.push_back(Region{});
     }
     lab[i] = region_of_root[r];
+    if (lab[i] < 0) pending.push_back(static_cast<int32_t>(i));
   }
   if (out->regions.empty()) {
     // Nothing but lines and specks: one region.
     out->regions.push_back(Region{});
     for (size_t i = 0; i < n; ++i) lab[i] = 0;
+    pending.clear();
   }
   // Region statistics (size, position moments, colour sums, box), summed exactly in integers
   // over runs of one label along a row; the pixels assigned below are added one by one.
@@ -476,9 +482,6 @@ void MserSegmenter::expand(const cv::Mat& bgr, Segmentation* out) {
     const RegionSums& a = sums_[r];
     if (a.n > 0) mean[r] = cv::Vec3d(static_cast<double>(a.c[0]), static_cast<double>(a.c[1]), static_cast<double>(a.c[2])) * (1.0 / static_cast<double>(a.n));
   }
-  std::vector<int32_t> pending;
-  for (size_t i = 0; i < n; ++i)
-    if (lab[i] < 0) pending.push_back(static_cast<int32_t>(i));
   // A feed-forward group is one region from the start, so all its pixels lie in one component:
   // its region, or (a speck) pixels assigned one by one below. Which, before they are.
   if (seeded_ > 0) {

@@ -155,6 +155,7 @@ class MserSegmenter {
   // Feed-forward groups (one per last-frame region with seeds): first pixel, size, and the
   // region their component became (-1: a speck, its pixels assigned one by one); those pixels.
   std::vector<int32_t> group_first_, group_size_, group_label_, unassigned_;
+  std::vector<int32_t> pending_;  // expansion: pixels not yet in a region
   int seeded_ = 0, seed_groups_ = 0;
   void make_seeds(const cv::Mat& bgr);
 };
