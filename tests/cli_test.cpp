@@ -302,6 +302,7 @@ TEST(Cli, BenchMserTimesTheWholeSystemBesideColourMserOnTheSameFrames) {
   EXPECT_EQ(row["width"], 160);
   EXPECT_GT(row["system_median_ms"].get<double>(), 0.0);
   EXPECT_GT(row["system_colour_mser_median_ms"].get<double>(), 0.0);
+  EXPECT_LE(row["system_speedup_over_colour_faster_median"].get<double>(), row["system_speedup_over_colour"].get<double>() + 1e-9);
   // The pipeline is the system and more.
   EXPECT_GE(row["pipeline_median_ms"].get<double>(), row["system_median_ms"].get<double>());
   ASSERT_EQ(j["quality"].size(), 3u);
