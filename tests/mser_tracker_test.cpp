@@ -166,6 +166,19 @@ cv::Mat table_scene(const StereoCameraModel& cam) {
   return img;
 }
 
+// The tracker's parameters with the table of table_scene in the floor plan (x 5.1 to 6.0, y -0.9
+// to 0.9, 0.75 m high), and the image point of the middle of its far edge.
+MserTrackerParams with_table() {
+  MserTrackerParams p;
+  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // centre, yaw, size x, size y, height
+  return p;
+}
+Eigen::Vector2d table_far_edge(const StereoCameraModel& cam) {
+  Eigen::Vector2d edge;
+  EXPECT_TRUE(cam.project_map(Eigen::Vector3d(6.0, 0.0, 0.75), &edge));
+  return edge;
+}
+
 TEST(MserTracker, AnObjectLyingOnATableAtTheStartIsReportedThereAndNotTheTable) {
   const StereoCameraModel cam = corridor_camera();
   MserTrackerParams p;
@@ -226,12 +239,10 @@ TEST(MserTracker, SomeoneBehindATableWithTheHeadOutOfViewStandsBeyondItsFarEdge)
 // and the floor its bottom ray meets beyond the table (here 3 m further) is not where they stand.
 TEST(MserTracker, ABoxCutOffByATablesFarEdgeStandsJustBehindItNotWhereItsBottomRayMeetsTheFloor) {
   const StereoCameraModel cam = corridor_camera();
-  MserTrackerParams p;
-  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // x 5.1 to 6.0
+  const MserTrackerParams p = with_table();
   auto t = MserTracker::create(cam, p);
   ASSERT_TRUE(t.ok());
-  Eigen::Vector2d edge;
-  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(6.0, 0.0, 0.75), &edge));
+  const Eigen::Vector2d edge = table_far_edge(cam);
   const int bottom = static_cast<int>(std::floor(edge.y())) - 1;  // just above the edge: the floor beyond
   const cv::Rect box(static_cast<int>(edge.x()) - 20, 0, 40, bottom);
   MserTracker::Placement pl;
@@ -303,12 +314,10 @@ struct Feeder {
 // was last seen, or every later span placement follows them there.
 TEST(MserTracker, TwoWrongFramesBehindATableDoNotMoveWhereSheStands) {
   const StereoCameraModel cam = corridor_camera();
-  MserTrackerParams p;
-  p.surfaces.push_back({5.55, 0.0, 0.0, 0.9, 1.8, 0.75});  // x 5.1 to 6.0
+  const MserTrackerParams p = with_table();
   auto t = MserTracker::create(cam, p);
   ASSERT_TRUE(t.ok());
-  Eigen::Vector2d edge;
-  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(6.0, 0.0, 0.75), &edge));
+  const Eigen::Vector2d edge = table_far_edge(cam);
   // A figure from the image's top down to its feet at (x, y) (or to `cut_above` rows above the
   // table's far edge), the table drawn over it.
   auto frame = [&](double x, double y, int cut_above) {
