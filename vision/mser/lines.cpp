@@ -1,4 +1,5 @@
 #include "vision/mser/lines.h"
+#include "vision/mser/clones.h"
 
 #include <algorithm>
 #include <cmath>
@@ -56,13 +57,8 @@ void simplify(const std::vector<cv::Point>& chain, double eps, std::vector<int>*
 
 }  // namespace
 
-// An AVX2 clone where the processor has it (as compute_texture_values; not under ThreadSanitizer).
-#if defined(__SANITIZE_THREAD__)
-#define VIGIL_LINES_CLONES
-#else
-#define VIGIL_LINES_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-VIGIL_LINES_CLONES void canny_edges(const cv::Mat& grey, double low_thresh, double high_thresh, uint8_t* out, int stride,
+// An AVX2 clone where the processor has it (clones.h).
+VIGIL_AVX2_CLONES void canny_edges(const cv::Mat& grey, double low_thresh, double high_thresh, uint8_t* out, int stride,
                                     Lines* work) {
   CV_Assert(grey.type() == CV_8UC1 && !grey.empty());
   const int w = grey.cols, h = grey.rows;

@@ -1,4 +1,5 @@
 #include "vision/mser/segmenter.h"
+#include "vision/mser/clones.h"
 
 #include <algorithm>
 #include <chrono>
@@ -62,14 +63,8 @@ void MserSegmenter::reset() {
 
 // One run of a last-frame region through the seed test (make_seeds): unchanged, not on a line,
 // gradient below the region's gate, colour within the limit of its mean; writes the region or
-// -1 per pixel and returns how many seeded. An AVX2 clone where the processor has it (as
-// compute_texture_values; not under ThreadSanitizer).
-#if defined(__SANITIZE_THREAD__)
-#define VIGIL_SEED_CLONES
-#else
-#define VIGIL_SEED_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-VIGIL_SEED_CLONES int seed_run(const uint8_t* __restrict px, const uint8_t* __restrict same, const uint8_t* __restrict blocked,
+// -1 per pixel and returns how many seeded. An AVX2 clone where the processor has it (clones.h).
+VIGIL_AVX2_CLONES int seed_run(const uint8_t* __restrict px, const uint8_t* __restrict same, const uint8_t* __restrict blocked,
                                const uint16_t* __restrict grad, int len, const float* mean, int below, float colour2,
                                int32_t region, int32_t* __restrict out) {
   const float m0 = mean[0], m1 = mean[1], m2 = mean[2];
@@ -270,7 +265,9 @@ void MserSegmenter::build_tree(Segmentation* out) {
   // Feed-forward seeds: each last-frame region's seeds one group from the start (no growth
   // history: they evolve from there), however scattered.
   if (seeded_ > 0) {
-    std::vector<int32_t> first(static_cast<size_t>(*std::max_element(seed_of_.begin(), seed_of_.end())) + 1, -1);
+    // Each group's first pixel (kept for the expansion's donor count).
+    std::vector<int32_t>& first = group_first_;
+    first.assign(static_cast<size_t>(*std::max_element(seed_of_.begin(), seed_of_.end())) + 1, -1);
     for (size_t i = 0; i < n; ++i) {
       const int32_t g = seed_of_[i];
       if (g < 0) continue;
@@ -287,7 +284,6 @@ void MserSegmenter::build_tree(Segmentation* out) {
       A.tail = b;
     }
     for (int32_t a : first) seed_groups_ += a >= 0;
-    group_first_.assign(first.begin(), first.end());
     group_size_.assign(first.size(), 0);
     for (size_t g = 0; g < first.size(); ++g) {
       const int32_t a = first[g];

@@ -1,4 +1,5 @@
 #include "vision/mser/texture.h"
+#include "vision/mser/clones.h"
 
 #include <algorithm>
 #include <array>
@@ -39,15 +40,8 @@ int texture_value(const cv::Vec3b& a, const cv::Vec3b& c, const cv::Vec3b& b) {
   return value_from_sum(sa + sb);
 }
 
-// An AVX2 clone where the processor has it, chosen at load time by an ifunc resolver. Not under
-// ThreadSanitizer: the resolver runs during relocation, before its runtime is up, and its
-// instrumentation crashes every program that links this (found by tools/test.sh --sanitize).
-#if defined(__SANITIZE_THREAD__)
-#define VIGIL_TEXTURE_CLONES
-#else
-#define VIGIL_TEXTURE_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-VIGIL_TEXTURE_CLONES void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
+// An AVX2 clone where the processor has it (clones.h).
+VIGIL_AVX2_CLONES void compute_texture_values(const cv::Mat& bgr, TextureElements* out) {
   if (bgr.type() != CV_8UC3) throw std::invalid_argument("compute_texture_values: expected a CV_8UC3 image");
   const int w = bgr.cols, h = bgr.rows;
   out->width = w;
