@@ -4,6 +4,7 @@
 // input refused with the reason.
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -475,6 +476,70 @@ void draw_figure(cv::Mat& img, const StereoCameraModel& cam, double x, double y,
   const int waist = b.y + b.height / 2;
   cv::rectangle(img, cv::Rect(b.x, b.y, b.width, waist - b.y), top, cv::FILLED);
   cv::rectangle(img, cv::Rect(b.x, waist, b.width, b.y + b.height - waist), bottom, cv::FILLED);
+}
+
+// Someone standing beside the table holds an arm out to a bottle on it, the hand just above
+// the bottle's top: the hand covers none of its pixels, yet the arm's end is at it, so her hand
+// is on the bottle. With the arm down she handles nothing; with the arm held out as far to
+// empty table beside the bottle, nothing either.
+TEST(MserTracker, AnArmHeldOutToABottleIsAHandOnItThoughItCoversNoneOfIt) {
+  const StereoCameraModel cam = corridor_camera();
+  const cv::Mat empty = table_scene(cam);
+  Eigen::Vector2d foot;
+  ASSERT_TRUE(cam.project_map(Eigen::Vector3d(5.25, -0.55, 0.75), &foot));
+  const cv::Rect bottle(static_cast<int>(foot.x()) - 3, static_cast<int>(foot.y()) - 16, 7, 16);
+  const cv::Rect person = cylinder_box(cam, 4.6, -2.1, 0.15, 1.7);
+  ASSERT_LT(bottle.br().x + 60, person.x) << "an arm's length of columns between the bottle and her";
+  // Arm: from her shoulder to `end`, 2 pixels thick. `y`: where she stands (0.4 m further
+  // right while she walks up).
+  auto scene = [&](bool with_person, std::optional<cv::Point> end, double y = -2.1) {
+    cv::Mat img = empty.clone();
+    cv::rectangle(img, bottle, cv::Scalar(40, 150, 60), cv::FILLED);
+    if (!with_person) return img;
+    draw_figure(img, cam, 4.6, y, 0.15, 1.7, cv::Scalar(150, 60, 40), cv::Scalar(60, 40, 30));
+    if (end) cv::line(img, cv::Point(person.x + 2, person.y + person.height / 5), *end, cv::Scalar(150, 60, 40), 2);
+    return img;
+  };
+  // A fresh tracker each time: the background learned, the bottle put down (nobody there), she
+  // walks up beside the table (5 frames, arm down), then stands 15 frames with her arm as given. Per frame: whether she was
+  // seen, and her hand on the bottle.
+  struct Seen {
+    int frames = 0, hands = 0, other_hands = 0;
+  };
+  auto run = [&](std::optional<cv::Point> end) {
+    auto tr = MserTracker::create(cam, with_table());
+    EXPECT_TRUE(tr.ok());
+    Feeder step{&*tr};
+    for (int i = 0; i < 25; ++i) step(empty);
+    int bottle_id = 0;
+    for (int i = 0; i < 15; ++i)
+      for (const Track& t : step(scene(false, std::nullopt)))
+        if (t.id < MserTracker::kStartIds && t.cls == TrackClass::kBag) bottle_id = t.id;
+    EXPECT_NE(bottle_id, 0) << "the bottle, a still bag on the table";
+    for (int i = 0; i < 5; ++i) step(scene(true, std::nullopt, -2.5 + 0.08 * i));  // she walks up
+    Seen seen;
+    for (int i = 0; i < 15; ++i) {
+      bool any = false;
+      for (const Track& t : step(scene(true, end))) {
+        if (t.id == bottle_id || t.id >= MserTracker::kStartIds) continue;
+        any = true;
+        if (t.hand_on == bottle_id) ++seen.hands;
+        else if (t.hand_on != 0) ++seen.other_hands;
+      }
+      seen.frames += any;
+    }
+    return seen;
+  };
+  const Seen reaching = run(cv::Point(bottle.x + 3, bottle.y - 3));
+  EXPECT_EQ(reaching.frames, 15) << "she stays an object with her arm held out";
+  EXPECT_GE(reaching.hands, 12) << "the arm's end at the bottle";
+  EXPECT_EQ(reaching.other_hands, 0);
+  const Seen down = run(std::nullopt);
+  EXPECT_EQ(down.frames, 15);
+  EXPECT_EQ(down.hands + down.other_hands, 0) << "arm down: she handles nothing";
+  // The arm held out as far, its end over the table a bottle's height and more from the bottle.
+  const Seen beside = run(cv::Point(bottle.br().x + bottle.height + 6, bottle.y - 3));
+  EXPECT_EQ(beside.hands + beside.other_hands, 0) << "an arm's end away from the bottle handles nothing";
 }
 
 // Things standing on the floor from the first frame are learned into the background with the

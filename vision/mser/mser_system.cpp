@@ -70,6 +70,54 @@ cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rec
   return cv::Rect(x0, box.y + top, x1 - x0 + 1, bottom - top + 1);
 }
 
+// The body of component `id` in `box`: its heaviest run of columns each holding at least
+// `thin` times the typical column's foreground pixels (the column the median pixel lies in,
+// columns sorted by their count), cut to the rows its pixels there span; *px gets those pixels.
+// An arm held out to a thing on a table is thin columns; the thing it reaches is another run.
+cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin, int* px) {
+  std::vector<int> col(box.width, 0);
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* f = fg.ptr<uint8_t>(y);
+    for (int x = box.x; x < box.x + box.width; ++x) col[x - box.x] += c[x] == id && f[x];
+  }
+  std::vector<int> nz;
+  int total = 0;
+  for (int v : col)
+    if (v > 0) nz.push_back(v), total += v;
+  *px = 0;
+  if (nz.empty()) return box;
+  std::sort(nz.begin(), nz.end());
+  int typical = nz.back(), acc = 0;
+  for (int v : nz)
+    if ((acc += v) * 2 >= total) {
+      typical = v;
+      break;
+    }
+  const double min_col = thin * typical;
+  int best_left = 0, best_right = -1, best_sum = 0;
+  for (int x = 0; x < box.width;) {
+    if (col[x] < min_col) {
+      ++x;
+      continue;
+    }
+    int sum = 0, end = x;
+    while (end < box.width && col[end] >= min_col) sum += col[end++];
+    if (sum > best_sum) best_sum = sum, best_left = x, best_right = end - 1;
+    x = end;
+  }
+  if (best_right < best_left) return box;
+  int y0 = box.y + box.height, y1 = box.y - 1;
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* f = fg.ptr<uint8_t>(y);
+    for (int x = box.x + best_left; x <= box.x + best_right; ++x)
+      if (c[x] == id && f[x]) y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  *px = best_sum;
+  return cv::Rect(box.x + best_left, y0, best_right - best_left + 1, y1 - y0 + 1);
+}
+
 }  // namespace
 
 MserSystem::MserSystem(MserSystemParams params)
@@ -549,7 +597,7 @@ std::vector<std::vector<ModelRegion>> MserSystem::box_regions(const cv::Mat& cc,
 }
 
 void MserSystem::update_objects() {
-  std::vector<cv::Rect> boxes;
+  std::vector<cv::Rect> boxes, bodies;  // per box: its box, its upright body (thin_column)
   std::vector<int> areas;
   std::vector<std::vector<ModelRegion>> regions_of_box;
   std::vector<char> still_part;  // per box: the still part of a split component
@@ -612,12 +660,21 @@ void MserSystem::update_objects() {
             if (ow >= 0) ++owned_px[ow];
           }
       }
+    // A component's body (thin_column: its heaviest run of columns that are not thin), if upright
+    // (else its whole box).
+    auto body_of = [&](int label, const cv::Rect& t) {
+      if (!(p_.thin_column > 0)) return t;
+      int body_px = 0;
+      const cv::Rect body = heaviest_column_run(cc, fg_, label, t, p_.thin_column, &body_px);
+      return body.height < p_.split_aspect * body.width ? t : body;
+    };
     auto add_box = [&](int label, const cv::Rect& b, bool still, int64_t owner) {
       const cv::Rect t = trimmed_box(cc, fg_, label, b, p_.thin_row);
       const int px = cv::countNonZero(fg_(t) & (cc(t) == label));
       if (px < p_.min_fill * t.area()) return;
       box_of[label] = static_cast<int>(boxes.size());
       boxes.push_back(t);
+      bodies.push_back(body_of(label, t));
       areas.push_back(px);
       still_part.resize(boxes.size(), 0);
       still_part.back() = still;
@@ -760,6 +817,7 @@ void MserSystem::update_objects() {
       if (cv::countNonZero(fg_(t) & (cc(t) == i)) < p_.min_fill * t.area()) continue;
       box_of[i] = static_cast<int>(boxes.size());
       boxes.push_back(t);
+      bodies.push_back(body_of(i, t));
       areas.push_back(area);
     }
     if (p_.recognise && !boxes.empty()) regions_of_box = box_regions(cc, box_of);
@@ -806,6 +864,7 @@ void MserSystem::update_objects() {
     const cv::Point2f c1(boxes[b].x + 0.5f * boxes[b].width, boxes[b].y + 0.5f * boxes[b].height);
     obj.velocity = 0.5f * obj.velocity + 0.5f * (c1 - c0) / static_cast<float>(obj.lost + 1);
     obj.box = boxes[b];
+    obj.body = bodies[b];
     obj.area = areas[b];
     obj.lost = 0;
     ++obj.age;
@@ -835,6 +894,7 @@ void MserSystem::update_objects() {
     ImageObject obj;
     obj.id = next_object_++;
     obj.box = boxes[b];
+    obj.body = bodies[b];
     obj.area = areas[b];
     keep_view(obj.id, areas[b], &regions_of_box[b]);
     next.push_back(obj);

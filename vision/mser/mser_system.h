@@ -103,6 +103,10 @@ struct MserSystemParams {
   // this fraction of its typical row (thin tails: a floor line bled into the feet's region).
   // Off (0) by default: on rendered people it cuts the lower legs as often as it removes a tail.
   double thin_row = 0;
+  // An object's body (ImageObject::body): its heaviest run of columns each holding at least
+  // this fraction of its typical column's foreground pixels, if that stands upright
+  // (split_aspect); an arm held out sideways is thin columns beyond it. 0: none (the box).
+  double thin_column = 0.2;
   int still_age = 10;
   double split_still_speed = 0.2;
   int keep_lost = 5;
@@ -127,6 +131,7 @@ struct MserSystemParams {
 struct ImageObject {
   int64_t id = 0;
   cv::Rect box;
+  cv::Rect body;       // its upright body without what it holds out sideways (thin_column); else box
   int area = 0;        // foreground pixels
   int age = 0, lost = 0;
   cv::Point2f velocity;  // of the box centre, px per frame

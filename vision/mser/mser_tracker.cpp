@@ -23,6 +23,8 @@ Status MserTrackerParams::validate() const {
   if (system.confirm_frames < 1) return bad_input("", 0, "confirm_frames", "must be at least 1");
   if (!(surface_min_area > 0 && surface_min_area <= 1))
     return bad_input("", 0, "surface_min_area", "must be a share of the image in (0, 1]");
+  if (!std::isfinite(hand_reach_margin)) return bad_input("", 0, "hand_reach_margin", "must be a number (negative: off)");
+  if (split_gap_px < 0) return bad_input("", 0, "split_gap_px", "must be a number of pixels, at least 0");
   return Status::Ok();
 }
 
@@ -463,9 +465,11 @@ std::map<int64_t, int64_t> MserTracker::hands_on_objects(const cv::Mat& bgr, std
   // A hand on a thing lying there: its pixels change colour (something in front of them) and
   // are foreground of an object that is not itself lying there. Someone standing behind it
   // leaves its pixels as they were.
-  std::map<int64_t, int64_t> hands;
+  std::map<int64_t, int64_t> hands;  // person -> thing, by changed pixels
+  std::map<int64_t, std::pair<int64_t, double>> tips;  // person -> (thing, distance), by an arm's end
   const cv::Mat& fg = system_.foreground();
   const auto objects = system_.objects();
+  std::vector<std::pair<const ImageObject*, int>> arm_ends;  // someone, their arm's end's column
   auto judge = [&](const Picture& pic, int64_t self) {
     if (pic.pixels <= 0) return;
     std::vector<cv::Point> changed;
@@ -476,27 +480,61 @@ std::map<int64_t, int64_t> MserTracker::hands_on_objects(const cv::Mat& bgr, std
         const int d = std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
         if (d > p_.hand_change) changed.emplace_back(pic.box.x + x, pic.box.y + y);
       }
-    if (static_cast<int>(changed.size()) < std::max<double>(p_.hand_min_pixels, p_.hand_min_share * pic.pixels)) return;
-    handled->insert(self);
-    // Whose: the object whose box holds most of the changed pixels, not a bag (what lies there).
-    int64_t best = -1;
-    size_t best_n = 0;
-    for (const ImageObject& o : objects) {
+    // The track id of a system object, unless it is `self` or a bag (what lies there).
+    auto hand_owner = [&](const ImageObject& o) -> int64_t {
       const int64_t sys_id = o.id + id_offset_;
       const auto al = alias_.find(sys_id);
       const int64_t id = al != alias_.end() ? al->second : sys_id;
-      if (id == self) continue;
-      if (const auto h = history_.find(id); h != history_.end() && h->second.cls == TrackClass::kBag) continue;
-      size_t n = 0;
-      for (const cv::Point& pt : changed) n += o.box.contains(pt);
-      if (n > best_n) best_n = n, best = id;
+      if (id == self) return -1;
+      if (const auto h = history_.find(id); h != history_.end() && h->second.cls == TrackClass::kBag) return -1;
+      return id;
+    };
+    if (static_cast<int>(changed.size()) >= std::max<double>(p_.hand_min_pixels, p_.hand_min_share * pic.pixels)) {
+      handled->insert(self);
+      // Whose: the object whose box holds most of the changed pixels.
+      int64_t best = -1;
+      size_t best_n = 0;
+      for (const ImageObject& o : objects) {
+        const int64_t id = hand_owner(o);
+        if (id < 0) continue;
+        size_t n = 0;
+        for (const cv::Point& pt : changed) n += o.box.contains(pt);
+        if (n > best_n) best_n = n, best = id;
+      }
+      if (best >= 0 && !hands.count(best)) hands[best] = self;
     }
-    if (best >= 0 && !hands.count(best)) hands[best] = self;
+    // An arm held out to it (the hand beside or above a thing too small to cover much of): the
+    // end of someone's reach, beyond their upright body, with their foreground there within the
+    // thing's box grown by hand_reach_margin of its height. What the arm's end is nearest is what they handle, not
+    // what the arm passes in front of on its way.
+    const int m = std::max(2, static_cast<int>(std::lround(p_.hand_reach_margin * pic.box.height)));
+    for (const auto& [o, tip_x] : arm_ends) {
+      const int dx = std::max({pic.box.x - tip_x, 0, tip_x - (pic.box.br().x - 1)});
+      if (dx > m) continue;
+      int dy = m + 1;  // the arm's end's foreground nearest the thing
+      for (int y = o->box.y; y < o->box.br().y; ++y)
+        if (fg.at<uint8_t>(y, tip_x)) dy = std::min(dy, std::max({pic.box.y - y, 0, y - (pic.box.br().y - 1)}));
+      if (dy > m) continue;
+      const int64_t id = hand_owner(*o);
+      if (id < 0) continue;
+      handled->insert(self);
+      const double d = std::hypot(dx, dy);
+      if (const auto t = tips.find(id); t == tips.end() || d < t->second.second) tips[id] = {self, d};
+    }
   };
+  // Each arm's end: the column where someone's box (their whole component) goes furthest
+  // sideways beyond their upright body (thin columns, ImageObject::body).
+  if (p_.hand_reach_margin >= 0)
+    for (const ImageObject& o : objects) {
+      if (o.box == o.body || (o.box & o.body) != o.body) continue;
+      const int left = o.body.x - o.box.x, right = o.box.br().x - o.body.br().x;
+      if (left > 0 || right > 0) arm_ends.push_back({&o, left >= right ? o.box.x : o.box.br().x - 1});
+    }
   for (const StartObject& so : start_objects_) judge(so.picture, kStartIds + so.index);
   // Things put down during the run: still bags (on a table or the floor) seen as they lay.
   for (const auto& [id, h] : history_)
     if (h.cls == TrackClass::kBag) judge(h.picture, id);
+  for (const auto& [who, what] : tips) hands[who] = what.first;
   return hands;
 }
 
@@ -540,6 +578,11 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     return &out.back();
   };
   std::map<int64_t, History> next;
+  // Whether two boxes overlap once one is grown by split_gap_px.
+  auto overlaps = [&](const cv::Rect& a, const cv::Rect& b) {
+    const int g = p_.split_gap_px;
+    return (cv::Rect(a.x - g, a.y - g, a.width + 2 * g, a.height + 2 * g) & b).area() > 0;
+  };
   // The person track last seen nearest (x, y), within merge_reach plus max_speed times how long
   // ago, at most `max_unseen` s ago, and not one of `excluded`; -1 if none.
   auto nearest_person = [&](double x, double y, double max_unseen, const std::set<int64_t>& excluded) {
@@ -589,11 +632,13 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     double x = pl.x, y = pl.y, w = pl.width, h = pl.height;
     max_id_ = std::max(max_id_, sys_id);
     // A new object where a bag lies (held, or still seen: the bag's image split in two) is that
-    // bag.
+    // bag: near its place and overlapping its last box in the image (a second thing put down
+    // beside it, apart in the image, is a thing of its own).
     if (!history_.count(sys_id) && !alias_.count(sys_id)) {
       for (const auto& [hid, hh] : history_) {
         if (hh.cls != TrackClass::kBag || hh.frames < p_.hold_min_frames) continue;
-        if ((frame.stamp_ns - hh.stamp_ns) * 1e-9 <= p_.hold_time && std::hypot(hh.x - x, hh.y - y) <= p_.hold_match) {
+        if ((frame.stamp_ns - hh.stamp_ns) * 1e-9 <= p_.hold_time && std::hypot(hh.x - x, hh.y - y) <= p_.hold_match &&
+            overlaps(hh.box, o.box)) {
           alias_[sys_id] = hid;
           break;
         }
@@ -774,8 +819,10 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
       covered = 2 * cv::countNonZero(fg & hist.picture.mask) >= hist.picture.pixels;
     }
     if (!covered) continue;
-    bool taken_over = false;  // a bag reported at its place now is it, or hides it
-    for (const Track& o : out) taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match);
+    bool taken_over = false;  // a bag reported at its place now, over its box, is it, or hides it
+    for (const Track& o : out)
+      taken_over = taken_over || (o.cls == TrackClass::kBag && std::hypot(o.x - hist.x, o.y - hist.y) <= p_.hold_match &&
+                                  next.count(o.id) && overlaps(next.at(o.id).box, hist.box));
     if (taken_over) continue;
     report(id, hist.cls, hist.x, hist.y, hist.width, hist.height, 0.3, false);
   }

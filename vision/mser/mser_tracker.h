@@ -88,6 +88,10 @@ struct MserTrackerParams {
   int hand_change = 60;
   int hand_min_pixels = 20;
   double hand_min_share = 0.01;
+  // ...or an arm held out to it: the far end of someone's reach beyond their upright body
+  // (its box beyond ImageObject::body, MserSystemParams::thin_column) within the thing's box grown by this
+  // share of its height (a hand beside or above a bottle covers little of it). Negative: off.
+  double hand_reach_margin = 0.25;
   // Feet cut off by the image's bottom edge: a box at least `cut_min_aspect` times as tall as
   // wide is placed as a person this tall (m) by its top; 0: not placed.
   double cut_person_height = 1.7;
@@ -103,7 +107,8 @@ struct MserTrackerParams {
   // counts as still. An uncovered empty place ends it at once.
   double hold_time = 3.0;
   double hold_speed = 0.3;
-  double hold_match = 0.5;  // m: a new object this close to a held bag is that bag
+  double hold_match = 0.5;  // m: a new object this close to a held bag is that bag...
+  int split_gap_px = 2;     // ...if its box overlaps the bag's last box grown by this (pixels)
   int hold_min_frames = 3;  // a bag measured on fewer frames (a carried bag glimpsed) is not held
   // A still bag whose object becomes person-sized (someone reached it and their blobs merged) is
   // held as covered, and the object is the person track last seen within this many metres (plus
