@@ -30,6 +30,21 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? static_cast<double>(inter) / uni : 0.0;
 }
 
+// The typical count of `counts` (rows' or columns' pixels): the count of the one the median
+// pixel lies in, sorted by count (a long thin tail has many rows but few pixels); 0 if empty.
+int typical_count(const std::vector<int>& counts) {
+  std::vector<int> nz;
+  int total = 0;
+  for (int v : counts)
+    if (v > 0) nz.push_back(v), total += v;
+  if (nz.empty()) return 0;
+  std::sort(nz.begin(), nz.end());
+  int acc = 0;
+  for (int v : nz)
+    if ((acc += v) * 2 >= total) return v;
+  return nz.back();
+}
+
 // The box of a component's foreground pixels (label `id` in `cc`) without thin tails at its
 // top and bottom: rows with fewer than `thin` of the typical row's pixels (a grout line the
 // feet stand on, bled into the trousers' region; a strip of something far behind the head).
@@ -41,20 +56,8 @@ cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rec
     const uint8_t* f = fg.ptr<uint8_t>(y);
     for (int x = box.x; x < box.x + box.width; ++x) row[y - box.y] += c[x] == id && f[x];
   }
-  // The typical row: the width of the row the median pixel lies in, rows sorted by width (a
-  // long thin tail has many rows but few pixels).
-  std::vector<int> nz;
-  int total = 0;
-  for (int v : row)
-    if (v > 0) nz.push_back(v), total += v;
-  if (nz.empty()) return box;
-  std::sort(nz.begin(), nz.end());
-  int typical = nz.back(), acc = 0;
-  for (int v : nz)
-    if ((acc += v) * 2 >= total) {
-      typical = v;
-      break;
-    }
+  const int typical = typical_count(row);
+  if (typical == 0) return box;
   const double min_row = thin * typical;
   int top = 0, bottom = box.height - 1;
   while (top < bottom && row[top] < min_row) ++top;
@@ -81,19 +84,9 @@ cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const
     const uint8_t* f = fg.ptr<uint8_t>(y);
     for (int x = box.x; x < box.x + box.width; ++x) col[x - box.x] += c[x] == id && f[x];
   }
-  std::vector<int> nz;
-  int total = 0;
-  for (int v : col)
-    if (v > 0) nz.push_back(v), total += v;
   *px = 0;
-  if (nz.empty()) return box;
-  std::sort(nz.begin(), nz.end());
-  int typical = nz.back(), acc = 0;
-  for (int v : nz)
-    if ((acc += v) * 2 >= total) {
-      typical = v;
-      break;
-    }
+  const int typical = typical_count(col);
+  if (typical == 0) return box;
   const double min_col = thin * typical;
   int best_left = 0, best_right = -1, best_sum = 0;
   for (int x = 0; x < box.width;) {
