@@ -75,16 +75,15 @@ cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rec
 
 // The body of component `id` in `box`: its heaviest run of columns each holding at least
 // `thin` times the typical column's foreground pixels (the column the median pixel lies in,
-// columns sorted by their count), cut to the rows its pixels there span; *px gets those pixels.
+// columns sorted by their count), cut to the rows its pixels there span.
 // An arm held out to a thing on a table is thin columns; the thing it reaches is another run.
-cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin, int* px) {
+cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin) {
   std::vector<int> col(box.width, 0);
   for (int y = box.y; y < box.y + box.height; ++y) {
     const int32_t* c = cc.ptr<int32_t>(y);
     const uint8_t* f = fg.ptr<uint8_t>(y);
     for (int x = box.x; x < box.x + box.width; ++x) col[x - box.x] += c[x] == id && f[x];
   }
-  *px = 0;
   const int typical = typical_count(col);
   if (typical == 0) return box;
   const double min_col = thin * typical;
@@ -107,7 +106,6 @@ cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const
     for (int x = box.x + best_left; x <= box.x + best_right; ++x)
       if (c[x] == id && f[x]) y0 = std::min(y0, y), y1 = std::max(y1, y);
   }
-  *px = best_sum;
   return cv::Rect(box.x + best_left, y0, best_right - best_left + 1, y1 - y0 + 1);
 }
 
@@ -657,8 +655,7 @@ void MserSystem::update_objects() {
     // (else its whole box).
     auto body_of = [&](int label, const cv::Rect& t) {
       if (!(p_.thin_column > 0)) return t;
-      int body_px = 0;
-      const cv::Rect body = heaviest_column_run(cc, fg_, label, t, p_.thin_column, &body_px);
+      const cv::Rect body = heaviest_column_run(cc, fg_, label, t, p_.thin_column);
       return body.height < p_.split_aspect * body.width ? t : body;
     };
     auto add_box = [&](int label, const cv::Rect& b, bool still, int64_t owner) {
