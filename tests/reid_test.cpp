@@ -88,6 +88,40 @@ TEST(Reid, MeasuresTheShirtAndTheTrousers) {
   EXPECT_TRUE(measure_appearance(v.bgr, v.mask, cv::Mat(), cam, person_track(1, 4.0), ReidParams{}).empty());
 }
 
+// A mono camera (the colour MSER system) has no depth: each row of her box is put at her
+// distance from the camera, so the bands still fall on the shirt and the trousers.
+TEST(Reid, MonoMeasuresTheShirtAndTheTrousersAtHerDistance) {
+  const StereoCameraModel cam = camera();
+  const cv::Vec3b shirt(40, 40, 200), trousers(120, 60, 20);
+  View v = person_view(cam, 4.0, shirt, trousers);
+  const cv::Rect box = cv::boundingRect(v.mask);
+  ASSERT_FALSE(box.empty());
+  const Appearance a = measure_appearance_mono(v.bgr, v.mask, box, cam, 4.0, 0.0, 1.75, ReidParams{});
+  ASSERT_GT(a.weight[0], 40);
+  ASSERT_GT(a.weight[1], 40);
+  const cv::Vec3f s = yuv_of(shirt), tr = yuv_of(trousers);
+  for (int ch = 0; ch < 3; ++ch) {
+    EXPECT_NEAR(a.yuv[ch], s[ch], 1.0) << "shirt channel " << ch;
+    EXPECT_NEAR(a.yuv[3 + ch], tr[ch], 1.0) << "trousers channel " << ch;
+  }
+  // Placed at half her distance, her rows would lie nearer the camera's height: the shirt band
+  // reads rows that are her trousers (the placement matters).
+  const Appearance near = measure_appearance_mono(v.bgr, v.mask, box, cam, 2.0, 0.0, 1.75, ReidParams{});
+  ASSERT_GT(near.weight[0], 0);
+  EXPECT_NEAR(near.yuv[2], tr[2], 1.0);
+  // Foreground outside her box is not hers; background inside it is not either.
+  cv::Mat more = v.mask.clone();
+  more(cv::Rect(0, 0, 20, 240)).setTo(255);
+  v.bgr(cv::Rect(0, 0, 20, 240)).setTo(cv::Scalar(0, 255, 0));
+  const Appearance same = measure_appearance_mono(v.bgr, more, box, cam, 4.0, 0.0, 1.75, ReidParams{});
+  for (int i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(same.yuv[i], a.yuv[i]);
+  // Bad input gives nothing, not a crash.
+  EXPECT_TRUE(measure_appearance_mono(cv::Mat(), v.mask, box, cam, 4.0, 0.0, 1.75, ReidParams{}).empty());
+  EXPECT_TRUE(measure_appearance_mono(v.bgr, v.mask, cv::Rect(400, 0, 10, 10), cam, 4.0, 0.0, 1.75, ReidParams{}).empty());
+  EXPECT_TRUE(measure_appearance_mono(v.bgr, v.mask, box, cam, NAN, 0.0, 1.75, ReidParams{}).empty());
+  EXPECT_TRUE(measure_appearance_mono(v.bgr, v.mask, box, cam, 4.0, 0.0, 0.0, ReidParams{}).empty());
+}
+
 TEST(Reid, DistanceOverTheBandsBothKnow) {
   Appearance a, b;
   a.yuv = {100, 120, 130, 50, 128, 128};

@@ -67,6 +67,32 @@ TEST(ScenarioGen, EveryFamilyDrawsValidScenariosAndTheSameSeedTheSameBytes) {
   }
 }
 
+// The chapter's platform (10.6.1): the stereo plan view in the corridor, the colour MSER system
+// in the lab; the same draw as with any other sensor.
+TEST(ScenarioGen, ThePlatformSensorPutsTheMserSystemOnTheLabCameraAndSgbmOnTheCorridor) {
+  const fs::path out = test::fresh_temp_dir("gen", "platform");
+  for (const std::string f : {"lab_other", "left_bag"}) {
+    SCOPED_TRACE(f);
+    ScenarioGenOptions o = options(f, 5, 0, out);
+    o.sensor = "platform";
+    auto a = generate_scenario(o);
+    ASSERT_TRUE(a) << a.error().str();
+    auto sc = parse_scenario(a->text, out / (a->name + ".yaml"));
+    ASSERT_TRUE(sc) << sc.error().str();
+    ASSERT_EQ(sc->cameras.size(), 1u);
+    const auto& cam = sc->cameras.front();
+    EXPECT_EQ(cam.plugin, cam.id == "cam_lab" ? "mser" : "planview") << cam.id;
+    EXPECT_EQ(cam.id, f == "lab_other" ? "cam_lab" : "cam_corridor");
+    o.sensor = "sgbm";
+    auto b = generate_scenario(o);
+    ASSERT_TRUE(b);
+    auto sb = parse_scenario(b->text, out / (b->name + ".yaml"));
+    ASSERT_TRUE(sb);
+    ASSERT_EQ(sb->people.size(), sc->people.size()) << "the sensor does not change the draw";
+    for (size_t i = 0; i < sb->people.size(); ++i) EXPECT_EQ(sb->people[i].start.point.x, sc->people[i].start.point.x);
+  }
+}
+
 TEST(ScenarioGen, UnknownFamilyOrSensorIsAnErrorNamingTheKey) {
   const fs::path out = test::fresh_temp_dir("gen", "bad");
   auto f = generate_scenario(options("left_bags", 1, 0, out));

@@ -3,10 +3,12 @@
 # (or of the families named) with the chosen sensor on every camera, each is run and scored with
 # `vigil eval`, and a table per family and per kind is printed and written to OUT/summary.md
 # (and OUT/summary.json).
-#   tools/eval_generated.sh [truth|truth-clean|sgbm|mser] [N] [OUT_DIR] [--seed S] [--jobs J] [family ...]
+#   tools/eval_generated.sh [truth|truth-clean|sgbm|mser|platform] [N] [OUT_DIR] [--seed S] [--jobs J] [family ...]
 # truth: the ground-truth sensor with 0.05 m noise, 5 % misses and 0.05 false tracks per tick
 # (the issue's figure: at least 100 scenarios); sgbm: rendered frames, SGBM and the plan view;
-# mser: rendered frames (each camera's left image) and the colour MSER system (docs/MSER.md).
+# mser: rendered frames (each camera's left image) and the colour MSER system (docs/MSER.md);
+# platform: the chapter's platform (10.6.1), sgbm on the corridor camera and the colour MSER
+# system on the lab camera.
 # VIGIL=PATH runs another build of vigil (default: build/tools/vigil).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -23,7 +25,7 @@ done
 [ ${#fams[@]} -gt 0 ] || fams=(all)
 vigil="${VIGIL:-$here/build/tools/vigil}"
 [ -x "$vigil" ] || { echo "eval_generated: $vigil is not there: build first (tools/build.sh)" >&2; exit 2; }
-case "$mode" in truth|truth-clean|sgbm|mser) ;; *) echo "eval_generated: mode must be truth, truth-clean, sgbm or mser" >&2; exit 2 ;; esac
+case "$mode" in truth|truth-clean|sgbm|mser|platform) ;; *) echo "eval_generated: mode must be truth, truth-clean, sgbm, mser or platform" >&2; exit 2 ;; esac
 # The generator writes the sensors it knows; the MSER system is put on every camera at run time.
 gen_sensor="$mode"; run_args=()
 if [ "$mode" = mser ]; then gen_sensor=none; run_args=(--sensor mser); fi

@@ -93,6 +93,50 @@ Appearance measure_appearance(const cv::Mat& bgr, const cv::Mat& mask, const cv:
   return a;
 }
 
+Appearance measure_appearance_mono(const cv::Mat& bgr, const cv::Mat& mask, const cv::Rect& box_in,
+                                   const StereoCameraModel& camera, double x, double y, double height,
+                                   const ReidParams& p) {
+  Appearance a;
+  if (bgr.empty() || bgr.type() != CV_8UC3 || mask.size() != bgr.size() || mask.type() != CV_8UC1 ||
+      !(height > 0) || !std::isfinite(x) || !std::isfinite(y))
+    return a;
+  const cv::Rect box = box_in & cv::Rect(0, 0, bgr.cols, bgr.rows);
+  if (box.empty()) return a;
+  const Eigen::Isometry3d to_map = camera.map_from_optical();
+  const Eigen::Vector3d c = to_map.translation();
+  const double range = std::hypot(x - c.x(), y - c.y());
+  if (!(range > 0)) return a;
+  const Intrinsics& k = camera.intrinsics();
+  const double u = box.x + 0.5 * box.width;
+  cv::Mat yuv;
+  cv::cvtColor(bgr(box), yuv, cv::COLOR_BGR2YUV);
+  std::array<double, 6> sum{};
+  std::array<int, 2> n{};
+  const double lo0 = 0.5 * height, hi0 = 0.8 * height, lo1 = 0.1 * height, hi1 = 0.45 * height;
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    // The row's height above the floor where its ray is `range` from the camera, horizontally.
+    const Eigen::Vector3d d = to_map.linear() * Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+    const double dh = std::hypot(d.x(), d.y());
+    if (!(dh > 1e-9)) continue;
+    const double h = c.z() + range / dh * d.z();
+    const int band = h >= lo0 && h <= hi0 ? 0 : h >= lo1 && h <= hi1 ? 1 : -1;
+    if (band < 0) continue;
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const cv::Vec3b* col = yuv.ptr<cv::Vec3b>(v - box.y) - box.x;
+    for (int uu = box.x; uu < box.x + box.width; ++uu) {
+      if (!m[uu]) continue;
+      for (int ch = 0; ch < 3; ++ch) sum[3 * band + ch] += col[uu][ch];
+      ++n[band];
+    }
+  }
+  for (int b = 0; b < 2; ++b) {
+    if (n[b] < p.min_pixels) continue;
+    for (int ch = 0; ch < 3; ++ch) a.yuv[3 * b + ch] = static_cast<float>(sum[3 * b + ch] / n[b]);
+    a.weight[b] = static_cast<float>(n[b]);
+  }
+  return a;
+}
+
 double appearance_distance(const Appearance& a, const Appearance& b) {
   double worst = -1;
   for (int band = 0; band < 2; ++band) {

@@ -57,6 +57,15 @@ cv::Rect track_image_box(const StereoCameraModel& camera, const Track& t, cv::Si
 Appearance measure_appearance(const cv::Mat& bgr, const cv::Mat& mask, const cv::Mat& depth,
                               const StereoCameraModel& camera, const Track& t, const ReidParams& p);
 
+// The same for a mono camera (the colour MSER system), which has no depth: the foreground pixels
+// (`mask`) inside the person's image box `box`, each row's height above the floor taken where
+// its ray reaches the person's distance from the camera (her place x, y on the map; a person
+// behind a table, placed by her head, has her rows measured the same way), in the bands of her
+// height `height` (m). The caller leaves out people whose boxes overlap (their colours would mix).
+Appearance measure_appearance_mono(const cv::Mat& bgr, const cv::Mat& mask, const cv::Rect& box,
+                                   const StereoCameraModel& camera, double x, double y, double height,
+                                   const ReidParams& p);
+
 // Distance between two people's colours: over the bands both know, the largest of
 // sqrt((dY / 2)^2 + dU^2 + dV^2) (brightness changes with the light along a corridor more than
 // hue does); infinity when they share no band.

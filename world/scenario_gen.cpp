@@ -416,8 +416,10 @@ class Draw {
         s << "    plugin: truth\n    params: {position_noise: 0.05, miss_rate: 0.05, false_alarm_rate: 0.05}\n";
       else if (o_.sensor == "truth-clean")
         s << "    plugin: truth\n    params: {position_noise: 0.05}\n";
-      else if (o_.sensor == "sgbm")
+      else if (o_.sensor == "sgbm" || (o_.sensor == "platform" && c.id != "cam_lab"))
         s << "    plugin: planview\n    params: {disparity: sgbm}\n";
+      else if (o_.sensor == "platform")
+        s << "    plugin: mser\n";  // the chapter's platform: the colour MSER system in the lab (10.6.1)
     }
     if (!robots_.empty()) {
       s << "\nrobots:\n";
@@ -1045,8 +1047,8 @@ Result<GeneratedScenario> generate_scenario(const ScenarioGenOptions& o) {
     for (const auto& n : scenario_families()) known += (known.empty() ? "" : ", ") + n;
     return bad_input("", 0, "family", "unknown scenario family '" + o.family + "' (known: " + known + ")");
   }
-  if (!(o.sensor.empty() || o.sensor == "truth" || o.sensor == "truth-clean" || o.sensor == "sgbm"))
-    return bad_input("", 0, "sensor", "must be none, truth, truth-clean or sgbm, not '" + o.sensor + "'");
+  if (!(o.sensor.empty() || o.sensor == "truth" || o.sensor == "truth-clean" || o.sensor == "sgbm" || o.sensor == "platform"))
+    return bad_input("", 0, "sensor", "must be none, truth, truth-clean, sgbm or platform, not '" + o.sensor + "'");
   if (o.index < 0) return bad_input("", 0, "index", "must be >= 0");
   GeneratedScenario g;
   g.family = o.family;

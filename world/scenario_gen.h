@@ -27,7 +27,9 @@ struct ScenarioGenOptions {
   std::filesystem::path out_dir; // where the file will be written (paths in it are relative to it)
   // The vision sensor written on every camera: "" (none), "truth" (the ground-truth sensor with
   // 0.05 m noise, 5 % misses, 0.05 false tracks per tick), "truth-clean" (no misses, no false
-  // tracks) or "sgbm" (the rendered plan-view pipeline with SGBM disparity).
+  // tracks), "sgbm" (the rendered plan-view pipeline with SGBM disparity) or "platform" (the
+  // chapter's platform: SGBM and the plan view on the corridor camera, the colour MSER system on
+  // the lab camera, section 10.6.1).
   std::string sensor;
   // Dry run: each draw is also simulated (no cameras) and kept only if every person finishes
   // their script (people walk the paths planned on the map and do not step around each other or

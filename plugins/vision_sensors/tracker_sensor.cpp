@@ -192,6 +192,10 @@ TrackerKind mser_kind() {
       {"start_objects", ParamType::kBool, true, 0, 0,
        "what stands on the floor in the map's free space while the background is learned is an object, not "
        "background"},
+      {"reid", ParamType::kBool, d.reid.enabled, 0, 0,
+       "a person who comes back (a new track) takes the id of one lost earlier dressed alike (vision/reid.h)"},
+      {"reid_max_distance", ParamType::kNumber, d.reid.max_distance, 0, 1000,
+       "colour distance (YUV) under which a new person is one lost earlier"},
   };
   k.make = [](const ParamSet& p, const SensorContext& ctx) -> Result<std::unique_ptr<vision::Tracker>> {
     vision::mser::MserTrackerParams tp;
@@ -203,6 +207,8 @@ TrackerKind mser_kind() {
     tp.system.segmenter.use_lines = p.boolean("lines");
     tp.max_range = p.number("max_range");
     tp.floor_start_objects = p.boolean("start_objects");
+    tp.reid.enabled = p.boolean("reid");
+    tp.reid.max_distance = p.number("reid_max_distance");
     for (const FloorplanFurniture& f : ctx.furniture)
       tp.surfaces.push_back({f.pose.x, f.pose.y, f.pose.yaw, f.size_x, f.size_y, f.height});
     auto t = vision::mser::MserTracker::create(ctx.model, tp);

@@ -1,4 +1,4 @@
-// `vigil gen FAMILY|all --seed S --count N --out DIR [--sensor truth|truth-clean|sgbm|none]`:
+// `vigil gen FAMILY|all --seed S --count N --out DIR [--sensor truth|truth-clean|sgbm|platform|none]`:
 // writes N random but valid scenarios per family (world/scenario_gen.h), FAMILY_SEED_INDEX.yaml,
 // and prints one line per file with what happens in it. `vigil gen --list` lists the families.
 #include <filesystem>
@@ -39,7 +39,8 @@ void add_gen_command(CLI::App& app) {
   cmd->add_option("--first", o->first, "Index of the first scenario (to extend a set)")->check(CLI::Range(0, 100000000));
   cmd->add_option("--out", o->out, "Output folder");
   cmd->add_option("--sensor", o->sensor, "Vision sensor on every camera: none, truth (0.05 m noise, 5% misses, "
-                                         "0.05 false tracks per tick), truth-clean (noise only) or sgbm (rendered plan view)");
+                                         "0.05 false tracks per tick), truth-clean (noise only), sgbm (rendered plan view) or platform "
+                                         "(the chapter's: sgbm on the corridor camera, the colour MSER system on the lab camera)");
   cmd->add_option("--map", o->map, "The DIS floorplan (default: the project's maps/dis_labs.floorplan.yaml)");
   cmd->add_option("--urdf", o->urdf, "Robot model (default: maps/robots/erratic.urdf)");
   cmd->add_flag("--list", o->list, "List the families and exit");

@@ -18,6 +18,7 @@ Status MserTrackerParams::validate() const {
   if (!(velocity_window > 0) || !std::isfinite(velocity_window))
     return bad_input("", 0, "velocity_window", "must be a positive time (s)");
   if (!(class_vote_decay > 0 && class_vote_decay <= 1)) return bad_input("", 0, "class_vote_decay", "must be in (0, 1]");
+  if (Status s = reid.validate(); !s.ok()) return s;
   if (system.warmup_frames < 0 || system.learn_frames < 1)
     return bad_input("", 0, "learn_frames", "needs at least one learning frame and no negative warm-up");
   if (system.confirm_frames < 1) return bad_input("", 0, "confirm_frames", "must be at least 1");
@@ -52,6 +53,7 @@ void MserTracker::reset() {
   floor_start_.release();
   history_.clear();
   alias_.clear();
+  reid_.reset();
   id_offset_ = max_id_;
 }
 
@@ -780,6 +782,8 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
     hist.width = w;
     hist.height = h;
     hist.box = o.box;
+    hist.legs_in_view = !pl.by_head && pl.support == 0 && o.box.br().y < frame.left.rows;
+    hist.upper_in_view = o.box.y > 0 || pl.by_head;
     ++hist.frames;
     TrackClass cls = TrackClass::kUnknown;
     double best = -1;
@@ -830,9 +834,48 @@ Result<std::vector<Track>> MserTracker::process(const StereoFrame& frame) {
   // the rules judge who handles them).
   for (const StartObject& o : start_objects_)
     report(kStartIds + o.index, TrackClass::kBag, o.place.x, o.place.y, o.place.width, o.place.height, 0.5, true);
+  reidentify(frame.stamp_ns, frame.left, next, &out);
   std::sort(out.begin(), out.end(), [](const Track& a, const Track& b) { return a.id < b.id; });
   history_.swap(next);
   return out;
+}
+
+void MserTracker::reidentify(int64_t stamp_ns, const cv::Mat& bgr, const std::map<int64_t, History>& next, std::vector<Track>* out) {
+  if (!p_.reid.enabled) return;
+  const cv::Mat& fg = system_.foreground();
+  // Measured people and their boxes this frame.
+  std::vector<std::pair<size_t, cv::Rect>> people;
+  for (size_t i = 0; i < out->size(); ++i) {
+    const Track& t = (*out)[i];
+    if (t.cls != TrackClass::kPerson || !t.measured) continue;
+    const auto h = next.find(t.id);
+    if (h != next.end() && h->second.stamp_ns == stamp_ns && (h->second.legs_in_view || h->second.upper_in_view))
+      people.emplace_back(i, h->second.box);
+  }
+  std::map<int, Appearance> seen;
+  if (!fg.empty() && fg.type() == CV_8UC1 && bgr.size() == fg.size())
+    for (const auto& [i, box] : people) {
+      bool alone = true;
+      for (const auto& [j, other] : people) alone = alone && (j == i || (box & other).area() * 5 < box.area());
+      if (!alone) continue;
+      const Track& t = (*out)[i];
+      Appearance a = measure_appearance_mono(bgr, fg, box, camera_, t.x, t.y, t.height, p_.reid);
+      // Legs behind a table, or a head out of view: that band is something else.
+      const History& hh = next.at(t.id);
+      if (!hh.legs_in_view) a.weight[1] = 0;
+      if (!hh.upper_in_view) a.weight[0] = 0;
+      if (!a.empty()) seen.emplace(t.id, a);
+    }
+  std::vector<int> before(out->size());
+  for (size_t i = 0; i < out->size(); ++i) before[i] = (*out)[i].id;
+  reid_.apply(stamp_ns, out, seen);
+  // A hand on a thing names the thing's identity too.
+  std::map<int, int> renamed;
+  for (size_t i = 0; i < out->size(); ++i)
+    if ((*out)[i].id != before[i]) renamed[before[i]] = (*out)[i].id;
+  if (!renamed.empty())
+    for (Track& t : *out)
+      if (const auto r = renamed.find(t.hand_on); t.hand_on > 0 && r != renamed.end()) t.hand_on = r->second;
 }
 
 cv::Mat MserTracker::annotate(const StereoFrame& frame, const std::vector<Track>& tracks) const {

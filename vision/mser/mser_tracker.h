@@ -32,6 +32,7 @@
 
 #include "vision/mser/mser_system.h"
 #include "vision/planview_tracker.h"
+#include "vision/reid.h"
 #include "vision/stereo_camera_model.h"
 #include "vision/tracker.h"
 
@@ -118,6 +119,12 @@ struct MserTrackerParams {
   // at most this long ago (s) continues it.
   double resume_time = 0.5;
   double class_vote_decay = 0.99;   // per frame: a memory of about 100 frames, as the plan-view tracker's
+  // People who come back: a new person track takes the identity of one lost earlier dressed
+  // alike (vision/reid.h), her colours measured on the foreground in her image box, each row's
+  // height above the floor taken at her distance (measure_appearance_mono), while no other
+  // person's box covers a fifth of hers. Someone who walks round the table and is found again
+  // as a new track stays the owner of what she put down.
+  ReidParams reid;
   Status validate() const;
 };
 
@@ -159,7 +166,8 @@ class MserTracker : public Tracker {
   bool box_to_map(const cv::Rect& box, double* x, double* y, double* width, double* height) const;
 
  private:
-  MserTracker(const StereoCameraModel& camera, const MserTrackerParams& p) : camera_(camera), p_(p), system_(p.system) {}
+  MserTracker(const StereoCameraModel& camera, const MserTrackerParams& p)
+      : camera_(camera), p_(p), system_(p.system), reid_(p.reid) {}
   struct Fix {
     int64_t stamp_ns = 0;
     double x = 0, y = 0;
@@ -186,7 +194,12 @@ class MserTracker : public Tracker {
     double seen_vx = 0, seen_vy = 0;  // the velocity then
     Fix spanned;          // the last place predicted inside a span
     std::deque<double> statures;  // its last measurements
+    // This frame's box shows the legs (standing on the floor, feet in view) and the upper body
+    // (head in view): which of her colours can be measured (reidentify).
+    bool legs_in_view = false, upper_in_view = false;
   };
+  // Renames `out`'s tracks to identities (reid_), given their image boxes (history `next`).
+  void reidentify(int64_t stamp_ns, const cv::Mat& bgr, const std::map<int64_t, History>& next, std::vector<Track>* out);
   bool place_by_head(const cv::Rect& box, Placement* out, double stature = -1) const;
   // The surface the ray through pixel (u, v) meets first, inside its outline (-1: the floor).
   int surface_under(double u, double v) const;
@@ -215,6 +228,7 @@ class MserTracker : public Tracker {
   MserTrackerParams p_;
   MserSystem system_;
   std::map<int64_t, History> history_;
+  Reidentifier reid_;
   std::map<int64_t, int64_t> alias_;  // the system's object id -> the track id it continues
   int64_t id_offset_ = 0;  // ids after a reset continue above the last
   int64_t merged_ids_ = 0;
