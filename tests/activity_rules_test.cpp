@@ -648,6 +648,39 @@ TEST(ActivityRules, WithHandsSeenAZoneObjectIsHandledByTheHandOnIt) {
   EXPECT_NEAR(seconds(hev[0].stamp_ns), 37.0, 0.1);
 }
 
+// The one who puts a book down on the marked table is lost by the tracker as she does (her
+// track ends at 7.9 s) and found again as a new track at 8.7 s, after the book's model formed
+// (8.5 s) with nobody established beside it. She is still its owner: her hand on it raises
+// nothing; C's hand on it later does. Without the owner taken after the model formed, her own
+// hand raised the alert (lab_own_23_1, docs/MSER.md).
+TEST(ActivityRules, AThingPutDownInAZoneBySomeoneFoundAgainAsANewTrackIsStillHers) {
+  ActivityRuleParams p = lab_zone();
+  p.hands_seen = true;
+  const Actor book{20, TrackClass::kBag, Path{{{8, 4.6, -0.1}, {60, 4.6, -0.1}}}};
+  const Actor b1{1, TrackClass::kPerson, Path{{{0, 0, -3.3}, {7.9, 4.6, -0.7}}}};
+  Actor b2{3, TrackClass::kPerson, Path{{{8.7, 4.6, -0.7}, {14, 4.6, -0.7}, {22, 0, -3}}}};
+  b2.hand_on = [](double t) { return t >= 10 && t < 12 ? 20 : 0; };
+  Actor c{2, TrackClass::kPerson, Path{{{25, 9, -3}, {32, 4.6, -0.7}, {40, 4.6, -0.7}, {48, 9, -3}}}};
+  c.hand_on = [](double t) { return t >= 36 && t < 38 ? 20 : 0; };
+  {
+    ActivityRules r = make_rules(p);
+    EXPECT_TRUE(run(r, 30, {book, b1, b2}).empty()) << "her own book";
+  }
+  ActivityRules r = make_rules(p);
+  const auto ev = run(r, 50, {book, b1, b2, c});
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].people, std::vector<int>{2});
+  // Someone who comes to it only after the window is not its owner: B2 arriving at 10.5 s
+  // (2 s after the model formed) handles a thing with no owner.
+  Actor late = b2;
+  late.path = Path{{{10.5, 4.6, -0.7}, {14, 4.6, -0.7}, {22, 0, -3}}};
+  late.hand_on = [](double t) { return t >= 11.5 && t < 13.5 ? 20 : 0; };
+  ActivityRules lr = make_rules(p);
+  const auto lev = run(lr, 30, {book, b1, late});
+  ASSERT_EQ(lev.size(), 1u);
+  EXPECT_EQ(lev[0].people, std::vector<int>{3});
+}
+
 TEST(ActivityRules, BadInputIsAnErrorNamingTheKey) {
   ActivityRuleParams p;
   p.left_bag_distance = -1;

@@ -384,6 +384,20 @@ void ActivityRules::match_objects(int64_t now, const std::vector<const Track*>& 
           o.left_event = o.restored->left_event;
           std::erase_if(forgotten_, [&](const Forgotten& f) { return dist(f.x, f.y, o.x, o.y) <= p_.object_match_distance; });
         }
+        o.confirmed_at = now;
+      }
+    } else if (o.owner < 0 && !o.at_start && !o.restored && now - o.confirmed_at <= ns(p_.owner_window) &&
+               in_handling_zone(o.x, o.y)) {
+      // A thing that appeared on a marked table during the run was put there by someone. If
+      // nobody established stood by it as its model formed (the tracker lost the one who put
+      // it down and found her again as a new track), the first person established beside it
+      // in the owner_window after is taken as her. Handling zones only: elsewhere a model
+      // without owner raises nothing, and a passer-by made its owner would leave it.
+      double nd = p_.owner_distance;
+      for (const auto& [id, p] : people_) {
+        if (!established(p, now)) continue;
+        const double d = dist(p.x, p.y, o.x, o.y);
+        if (d <= nd) nd = d, o.owner = id;
       }
     }
   }

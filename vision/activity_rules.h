@@ -41,7 +41,10 @@
 //    they own the model (the chapter: handling an object present at the start, or left by
 //    another, is an alert; handling what one brought is not). A marked object at the model's
 //    place is left to the rule above. Objects in a handling zone are judged by this rule only
-//    (no left bag or bag taken for a book put on the lab table).
+//    (no left bag or bag taken for a book put on the lab table). A thing that appears in a zone
+//    during the run with no established person by it as its model forms (the one who put it
+//    down lost by the tracker and found again as a new track) belongs to the first person
+//    established within owner_distance of it in the owner_window after.
 // Small objects on tables are part of the background to a plan-view tracker, which is why
 // handling them is judged against marked places rather than tracks.
 #pragma once
@@ -161,6 +164,7 @@ class ActivityRules {
     int64_t measured_at = -1;      // last tick its track was measured (not held or predicted)
     int sightings = 0;
     bool confirmed = false;
+    int64_t confirmed_at = 0;
     bool at_start = false;
     int owner = -1;                // person track id, -1 none
     double owner_candidate_distance = 1e9;
