@@ -66,11 +66,8 @@ Track person_track(int id, double x, double y = 0) {
   return t;
 }
 
-TEST(Reid, MeasuresTheShirtAndTheTrousers) {
-  const StereoCameraModel cam = camera();
-  const cv::Vec3b shirt(40, 40, 200), trousers(120, 60, 20);  // BGR: a red shirt, dark blue trousers
-  const View v = person_view(cam, 4.0, shirt, trousers);
-  const Appearance a = measure_appearance(v.bgr, v.mask, v.depth, cam, person_track(1, 4.0), ReidParams{});
+// Both bands measured on enough pixels, each the colour of those clothes.
+void expect_clothes(const Appearance& a, cv::Vec3b shirt, cv::Vec3b trousers) {
   ASSERT_GT(a.weight[0], 40);
   ASSERT_GT(a.weight[1], 40);
   const cv::Vec3f s = yuv_of(shirt), tr = yuv_of(trousers);
@@ -78,6 +75,14 @@ TEST(Reid, MeasuresTheShirtAndTheTrousers) {
     EXPECT_NEAR(a.yuv[ch], s[ch], 1.0) << "shirt channel " << ch;
     EXPECT_NEAR(a.yuv[3 + ch], tr[ch], 1.0) << "trousers channel " << ch;
   }
+}
+
+TEST(Reid, MeasuresTheShirtAndTheTrousers) {
+  const StereoCameraModel cam = camera();
+  const cv::Vec3b shirt(40, 40, 200), trousers(120, 60, 20);  // BGR: a red shirt, dark blue trousers
+  const View v = person_view(cam, 4.0, shirt, trousers);
+  const Appearance a = measure_appearance(v.bgr, v.mask, v.depth, cam, person_track(1, 4.0), ReidParams{});
+  expect_clothes(a, shirt, trousers);
   // Pixels at another depth (someone behind her in the box) are not hers.
   ReidParams tight;
   tight.depth_tolerance = 0.05;
@@ -97,18 +102,12 @@ TEST(Reid, MonoMeasuresTheShirtAndTheTrousersAtHerDistance) {
   const cv::Rect box = cv::boundingRect(v.mask);
   ASSERT_FALSE(box.empty());
   const Appearance a = measure_appearance_mono(v.bgr, v.mask, box, cam, 4.0, 0.0, 1.75, ReidParams{});
-  ASSERT_GT(a.weight[0], 40);
-  ASSERT_GT(a.weight[1], 40);
-  const cv::Vec3f s = yuv_of(shirt), tr = yuv_of(trousers);
-  for (int ch = 0; ch < 3; ++ch) {
-    EXPECT_NEAR(a.yuv[ch], s[ch], 1.0) << "shirt channel " << ch;
-    EXPECT_NEAR(a.yuv[3 + ch], tr[ch], 1.0) << "trousers channel " << ch;
-  }
+  expect_clothes(a, shirt, trousers);
   // Placed at half her distance, her rows would lie nearer the camera's height: the shirt band
   // reads rows that are her trousers (the placement matters).
   const Appearance near = measure_appearance_mono(v.bgr, v.mask, box, cam, 2.0, 0.0, 1.75, ReidParams{});
   ASSERT_GT(near.weight[0], 0);
-  EXPECT_NEAR(near.yuv[2], tr[2], 1.0);
+  EXPECT_NEAR(near.yuv[2], yuv_of(trousers)[2], 1.0);
   // Foreground outside her box is not hers; background inside it is not either.
   cv::Mat more = v.mask.clone();
   more(cv::Rect(0, 0, 20, 240)).setTo(255);

@@ -17,6 +17,17 @@ constexpr int kSettleFrames = 45;
 // Identities given to tracker tracks whose identity a later track took (see apply()).
 constexpr int kRetiredBase = 1 << 29;
 
+// The two bands' mean colours from their sums over `n` pixels; a band under min_pixels unknown.
+Appearance band_means(const std::array<double, 6>& sum, const std::array<int, 2>& n, const ReidParams& p) {
+  Appearance a;
+  for (int b = 0; b < 2; ++b) {
+    if (n[b] < p.min_pixels) continue;
+    for (int ch = 0; ch < 3; ++ch) a.yuv[3 * b + ch] = static_cast<float>(sum[3 * b + ch] / n[b]);
+    a.weight[b] = static_cast<float>(n[b]);
+  }
+  return a;
+}
+
 }  // namespace
 
 Status ReidParams::validate() const {
@@ -85,12 +96,7 @@ Appearance measure_appearance(const cv::Mat& bgr, const cv::Mat& mask, const cv:
       ++n[band];
     }
   }
-  for (int b = 0; b < 2; ++b) {
-    if (n[b] < p.min_pixels) continue;
-    for (int ch = 0; ch < 3; ++ch) a.yuv[3 * b + ch] = static_cast<float>(sum[3 * b + ch] / n[b]);
-    a.weight[b] = static_cast<float>(n[b]);
-  }
-  return a;
+  return band_means(sum, n, p);
 }
 
 Appearance measure_appearance_mono(const cv::Mat& bgr, const cv::Mat& mask, const cv::Rect& box_in,
@@ -129,12 +135,7 @@ Appearance measure_appearance_mono(const cv::Mat& bgr, const cv::Mat& mask, cons
       ++n[band];
     }
   }
-  for (int b = 0; b < 2; ++b) {
-    if (n[b] < p.min_pixels) continue;
-    for (int ch = 0; ch < 3; ++ch) a.yuv[3 * b + ch] = static_cast<float>(sum[3 * b + ch] / n[b]);
-    a.weight[b] = static_cast<float>(n[b]);
-  }
-  return a;
+  return band_means(sum, n, p);
 }
 
 double appearance_distance(const Appearance& a, const Appearance& b) {
