@@ -45,17 +45,24 @@ int typical_count(const std::vector<int>& counts) {
   return nz.back();
 }
 
+// The foreground pixels of component `id` (label in `cc`) in each row of `box` (`rows`), else
+// in each column.
+std::vector<int> component_counts(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, bool rows) {
+  std::vector<int> n(rows ? box.height : box.width, 0);
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    const int32_t* c = cc.ptr<int32_t>(y);
+    const uint8_t* f = fg.ptr<uint8_t>(y);
+    for (int x = box.x; x < box.x + box.width; ++x) n[rows ? y - box.y : x - box.x] += c[x] == id && f[x];
+  }
+  return n;
+}
+
 // The box of a component's foreground pixels (label `id` in `cc`) without thin tails at its
 // top and bottom: rows with fewer than `thin` of the typical row's pixels (a grout line the
 // feet stand on, bled into the trousers' region; a strip of something far behind the head).
 cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin) {
   if (!(thin > 0)) return box;
-  std::vector<int> row(box.height, 0);
-  for (int y = box.y; y < box.y + box.height; ++y) {
-    const int32_t* c = cc.ptr<int32_t>(y);
-    const uint8_t* f = fg.ptr<uint8_t>(y);
-    for (int x = box.x; x < box.x + box.width; ++x) row[y - box.y] += c[x] == id && f[x];
-  }
+  const std::vector<int> row = component_counts(cc, fg, id, box, true);
   const int typical = typical_count(row);
   if (typical == 0) return box;
   const double min_row = thin * typical;
@@ -78,12 +85,7 @@ cv::Rect trimmed_box(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rec
 // columns sorted by their count), cut to the rows its pixels there span.
 // An arm held out to a thing on a table is thin columns; the thing it reaches is another run.
 cv::Rect heaviest_column_run(const cv::Mat& cc, const cv::Mat& fg, int id, const cv::Rect& box, double thin) {
-  std::vector<int> col(box.width, 0);
-  for (int y = box.y; y < box.y + box.height; ++y) {
-    const int32_t* c = cc.ptr<int32_t>(y);
-    const uint8_t* f = fg.ptr<uint8_t>(y);
-    for (int x = box.x; x < box.x + box.width; ++x) col[x - box.x] += c[x] == id && f[x];
-  }
+  const std::vector<int> col = component_counts(cc, fg, id, box, false);
   const int typical = typical_count(col);
   if (typical == 0) return box;
   const double min_col = thin * typical;
